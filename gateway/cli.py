@@ -1,0 +1,92 @@
+"""The ``rc233-gateway`` command line."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from collections.abc import Sequence
+
+from gateway.errors import InvalidInputError
+from gateway.protocol.describe import catalog_json, catalog_table
+from gateway.protocol.params import PositionFormat
+from gateway.protocol.registry import Context, parse
+
+__all__ = ["main"]
+
+#: What `rc233-gateway run` (and so `make run`) cannot start yet, and where it will come from.
+MISSING = (
+    "the simulated RC-233 loop (issue 3: rc233-gateway sim)",
+    "the loop scheduler (issue 4)",
+    "the REST/WebSocket API (issue 5: rc233-gateway serve)",
+)
+
+
+def _catalog(args: argparse.Namespace) -> int:
+    if args.json:
+        print(json.dumps(catalog_json(), indent=2, ensure_ascii=False))
+    else:
+        print(catalog_table())
+    return 0
+
+
+def _parse(args: argparse.Namespace) -> int:
+    context = Context.PROGRAM if args.program else Context.HOST
+    positions = PositionFormat(args.positions) if args.positions else None
+    try:
+        command = parse(args.text, context=context, positions=positions)
+    except InvalidInputError as exc:
+        print(f"refused: {exc}\n  field: {exc.field}\n  rule:  {exc.rule}", file=sys.stderr)
+        return 2
+    print(
+        json.dumps(
+            {
+                "command": command.key,
+                "params": command.params(),
+                "wire": command.wire(),
+                "title": command.spec.title,
+                "reply": command.reply_format.value,
+                "idempotent": command.form.idempotent,
+            },
+            ensure_ascii=False,
+        )
+    )
+    return 0
+
+
+def _run(_: argparse.Namespace) -> int:
+    print("rc233-gateway: the protocol core is ready; try")
+    print("  .venv/bin/rc233-gateway catalog         # every command of the manual")
+    print("  .venv/bin/rc233-gateway parse OH4000    # command text -> typed command")
+    print("Not built yet, so nothing is served:")
+    for item in MISSING:
+        print(f"  - {item}")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of every subcommand."""
+    parser = argparse.ArgumentParser(prog="rc233-gateway", description=__doc__)
+    sub = parser.add_subparsers(dest="cmd", required=True)
+    cat = sub.add_parser("catalog", help="print every command of the manual")
+    cat.add_argument("--json", action="store_true", help="one JSON object per mnemonic")
+    cat.set_defaults(func=_catalog)
+    prs = sub.add_parser("parse", help="parse command text the way the gateway does")
+    prs.add_argument("text", help="text between body number and CR, e.g. OH4000")
+    prs.add_argument("--program", action="store_true", help="as a user-program statement")
+    prs.add_argument("--positions", choices=[f.value for f in PositionFormat])
+    prs.set_defaults(func=_parse)
+    run = sub.add_parser("run", help="what `make run` starts")
+    run.set_defaults(func=_run)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the console script."""
+    args = build_parser().parse_args(argv)
+    code: int = args.func(args)
+    return code
+
+
+if __name__ == "__main__":  # pragma: no cover
+    raise SystemExit(main())

@@ -1,0 +1,454 @@
+"""Parameter kinds of the command syntax, each with its own text rule.
+
+A command form is written as a tuple of literal strings and parameters (see ``spec.Form``).
+Each parameter kind knows three things about its piece of command text:
+
+- its strict pattern (what the manual allows, used to recognise a form unambiguously),
+- its loose pattern (what a careless writer might send, used only to give a precise error),
+- how to turn the matched text into a value and back (``decode`` / ``encode``).
+
+Values are plain ``int`` or ``str``; ranges are checked in ``decode`` and again by the
+pydantic model built for the form, so a command is valid from the moment it exists.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from enum import StrEnum
+from typing import Annotated, Any, Literal
+
+from pydantic import Field
+from typing_extensions import override
+
+from gateway.errors import ParameterError
+
+__all__ = [
+    "POSITION_MAX",
+    "POSITION_MIN",
+    "SIGNED_MAX",
+    "UNSIGNED_MAX",
+    "CharChoice",
+    "Dec",
+    "Digits",
+    "HexDigit",
+    "IntChoice",
+    "Jump",
+    "Label",
+    "Param",
+    "Position",
+    "PositionFormat",
+    "Text",
+    "jump_count",
+]
+
+#: The position counter is 24 bits wide (§10 EP): unsigned 0..16,777,215 or signed
+#: -8,388,608..+8,388,607, two views of the same counter.
+UNSIGNED_MAX = 16_777_215
+SIGNED_MAX = 8_388_607
+POSITION_MIN = -8_388_608
+POSITION_MAX = UNSIGNED_MAX
+
+
+class PositionFormat(StrEnum):
+    """How a controller manages positions: EP0 unsigned, or EP1 / mode 1 signed (§10 EP, §7-4)."""
+
+    UNSIGNED = "unsigned"
+    SIGNED = "signed"
+
+    @property
+    def bounds(self) -> tuple[int, int]:
+        """The inclusive range of positions in this format."""
+        return (0, UNSIGNED_MAX) if self is PositionFormat.UNSIGNED else (POSITION_MIN, SIGNED_MAX)
+
+
+#: Characters that may never stand inside a parameter: '$' starts a command, '/' starts a
+#: user-program statement, CR ends a frame (§10 I, §11-3).
+_NEVER_IN_TEXT = "$/\r"
+
+#: Label characters (§10 G, §11-3, §12 /G): one half-width character, not '$', '#', '/',
+#: not upper-case A-Z (they would collide with GA, GC, GE, GN, GR, GS, GW); lower-case a-z
+#: only as jump targets. Half-width katakana (U+FF61..U+FF9F) are allowed; see
+#: docs/manual-notes.md "Label characters".
+_LABEL_RE = r"[0-9a-z!\"%&'()*+,\-.:;<=>?@\[\\\]^_`{|}~\u00a5\uff61-\uff9f]"
+
+
+@dataclass(frozen=True)
+class Param:
+    """One parameter of a command form."""
+
+    name: str
+    doc: str = ""
+
+    def strict(self) -> str:
+        """Regex fragment for the text the manual allows."""
+        raise NotImplementedError
+
+    def loose(self) -> str:
+        """Regex fragment for text that is recognisably meant as this parameter."""
+        return self.strict()
+
+    def rule(self) -> str:
+        """The manual's rule in words, for error messages and the catalog."""
+        raise NotImplementedError
+
+    def decode(self, text: str) -> Any:
+        """Turn matched text into a value, or raise ParameterError naming the rule."""
+        raise NotImplementedError
+
+    def encode(self, value: Any) -> str:
+        """Canonical text of a valid value."""
+        return str(value)
+
+    def annotation(self) -> Any:
+        """The pydantic type of the model field that holds this parameter."""
+        raise NotImplementedError
+
+    def samples(self) -> tuple[Any, ...]:
+        """A few valid values (edges included) for tests and documentation."""
+        raise NotImplementedError
+
+    def _fail(self, text: str, why: str) -> ParameterError:
+        return ParameterError(f"{self.name}={text!r}: {why}", field=self.name, rule=self.rule())
+
+
+@dataclass(frozen=True)
+class Dec(Param):
+    """A decimal number written with 1 to ``digits`` digits (``OH{hs}``: up to 5)."""
+
+    lo: int = 0
+    hi: int = 0
+    digits: int = 5
+
+    @override
+    def strict(self) -> str:
+        return rf"\d{{1,{self.digits}}}"
+
+    @override
+    def loose(self) -> str:
+        # A one-digit parameter stays one digit, so that 'P1234567' blames time, not bt.
+        return r"\d" if self.digits == 1 else r"\d+"
+
+    @override
+    def rule(self) -> str:
+        digits = "1 digit" if self.digits == 1 else f"up to {self.digits} digits"
+        return f"{self.name}: decimal {self.lo}-{self.hi}, {digits}"
+
+    @override
+    def decode(self, text: str) -> int:
+        if not text.isdigit() or not text.isascii():
+            raise self._fail(text, "must be decimal digits")
+        if len(text) > self.digits:
+            raise self._fail(text, f"at most {self.digits} digits, got {len(text)}")
+        value = int(text)
+        if not self.lo <= value <= self.hi:
+            raise self._fail(text, f"out of range {self.lo}-{self.hi}")
+        return value
+
+    @override
+    def annotation(self) -> Any:
+        return Annotated[int, Field(ge=self.lo, le=self.hi, description=self.rule())]
+
+    @override
+    def samples(self) -> tuple[int, ...]:
+        return tuple(sorted({self.lo, self.hi, (self.lo + self.hi) // 2}))
+
+
+@dataclass(frozen=True)
+class Digits(Dec):
+    """A decimal number written with exactly ``digits`` digits (position numbers: 000-999)."""
+
+    @override
+    def strict(self) -> str:
+        return rf"\d{{{self.digits}}}"
+
+    @override
+    def rule(self) -> str:
+        return f"{self.name}: exactly {self.digits} decimal digits, {self.lo}-{self.hi}"
+
+    @override
+    def decode(self, text: str) -> int:
+        if len(text) != self.digits or not text.isdigit() or not text.isascii():
+            raise self._fail(text, f"must be exactly {self.digits} decimal digits")
+        return super().decode(text)
+
+    @override
+    def encode(self, value: Any) -> str:
+        return f"{int(value):0{self.digits}d}"
+
+
+@dataclass(frozen=True)
+class HexDigit(Param):
+    """One upper-case hexadecimal digit (port nibbles DU/DL, error mask of ``K``)."""
+
+    lo: int = 0
+    hi: int = 15
+
+    @override
+    def strict(self) -> str:
+        return "[0-9A-F]"
+
+    @override
+    def loose(self) -> str:
+        return "[0-9A-Za-z]"
+
+    @override
+    def rule(self) -> str:
+        return f"{self.name}: one hex digit {self.lo:X}-{self.hi:X}"
+
+    @override
+    def decode(self, text: str) -> int:
+        if len(text) != 1 or text not in "0123456789ABCDEF":
+            raise self._fail(text, "must be one upper-case hex digit")
+        value = int(text, 16)
+        if not self.lo <= value <= self.hi:
+            raise self._fail(text, f"out of range {self.lo:X}-{self.hi:X}")
+        return value
+
+    @override
+    def encode(self, value: Any) -> str:
+        return f"{int(value):X}"
+
+    @override
+    def annotation(self) -> Any:
+        return Annotated[int, Field(ge=self.lo, le=self.hi, description=self.rule())]
+
+    @override
+    def samples(self) -> tuple[int, ...]:
+        return (self.lo, self.hi)
+
+
+@dataclass(frozen=True)
+class IntChoice(Param):
+    """One digit out of a fixed set (motor number 1/2, counter 1/2, baud code 0-2)."""
+
+    values: tuple[int, ...] = ()
+
+    @override
+    def strict(self) -> str:
+        return "[" + "".join(str(v) for v in self.values) + "]"
+
+    @override
+    def loose(self) -> str:
+        return r"\d"
+
+    @override
+    def rule(self) -> str:
+        return f"{self.name}: one of {', '.join(str(v) for v in self.values)}"
+
+    @override
+    def decode(self, text: str) -> int:
+        if len(text) != 1 or not text.isdigit() or int(text) not in self.values:
+            raise self._fail(text, f"must be one of {', '.join(map(str, self.values))}")
+        return int(text)
+
+    @override
+    def annotation(self) -> Any:
+        return Annotated[Literal[self.values], Field(description=self.rule())]
+
+    @override
+    def samples(self) -> tuple[int, ...]:
+        return self.values
+
+
+@dataclass(frozen=True)
+class CharChoice(Param):
+    """One character out of a fixed set (direction +/-, buffer A-F, comparison <,=,>)."""
+
+    values: tuple[str, ...] = ()
+
+    @override
+    def strict(self) -> str:
+        return "(?:" + "|".join(re.escape(v) for v in self.values) + ")"
+
+    @override
+    def loose(self) -> str:
+        return "."
+
+    @override
+    def rule(self) -> str:
+        return f"{self.name}: one of {' '.join(self.values)}"
+
+    @override
+    def decode(self, text: str) -> str:
+        if text not in self.values:
+            raise self._fail(text, f"must be one of {' '.join(self.values)}")
+        return text
+
+    @override
+    def annotation(self) -> Any:
+        return Annotated[Literal[self.values], Field(description=self.rule())]
+
+    @override
+    def samples(self) -> tuple[str, ...]:
+        return self.values
+
+
+@dataclass(frozen=True)
+class Position(Param):
+    """A position in pulses: 8 digits unsigned (EP0) or sign + 7 digits signed (EP1, mode 1).
+
+    The text form decides nothing by itself: which range applies depends on the controller's
+    EP setting and mode, so the model checks the union here and the exact range when a
+    ``PositionFormat`` is given as validation context (see ``models``).
+    """
+
+    @override
+    def strict(self) -> str:
+        return r"(?:[+-]\d{1,7}|\d{1,8})"
+
+    @override
+    def loose(self) -> str:
+        return r"[+-]?\d+"
+
+    @override
+    def rule(self) -> str:
+        return (
+            f"{self.name}: unsigned 0-{UNSIGNED_MAX} (up to 8 digits, EP0) or signed "
+            f"{POSITION_MIN}..+{SIGNED_MAX} (sign + up to 7 digits, EP1 or mode 1)"
+        )
+
+    @override
+    def decode(self, text: str) -> int:
+        body = text[1:] if text[:1] in "+-" else text
+        if not body.isdigit() or not body.isascii():
+            raise self._fail(text, "must be decimal digits with an optional sign")
+        limit = 7 if text[:1] in "+-" else 8
+        if len(body) > limit:
+            raise self._fail(
+                text, f"at most {limit} digits {'after the sign' if limit == 7 else ''}"
+            )
+        value = int(text)
+        if not POSITION_MIN <= value <= POSITION_MAX:
+            raise self._fail(text, "out of the 24-bit position range")
+        if text[0] == "+" and value > SIGNED_MAX:  # pragma: no cover - 7 digits cannot exceed
+            raise self._fail(text, f"signed positions end at +{SIGNED_MAX}")
+        return value
+
+    @override
+    def annotation(self) -> Any:
+        return Annotated[int, Field(ge=POSITION_MIN, le=POSITION_MAX, description=self.rule())]
+
+    @override
+    def samples(self) -> tuple[int, ...]:
+        return (0, 3500, SIGNED_MAX, UNSIGNED_MAX, -1, POSITION_MIN)
+
+
+@dataclass(frozen=True)
+class Text(Param):
+    """Free text (``/CO`` message): printable, no '$', '/' or CR, at most ``max_len``."""
+
+    max_len: int = 20
+
+    @override
+    def strict(self) -> str:
+        return rf"[^$/\r\n]{{1,{self.max_len}}}"
+
+    @override
+    def loose(self) -> str:
+        return r"[^/]*"
+
+    @override
+    def rule(self) -> str:
+        return f"{self.name}: 1-{self.max_len} characters, none of '$', '/', CR"
+
+    @override
+    def decode(self, text: str) -> str:
+        if not 1 <= len(text) <= self.max_len:
+            raise self._fail(text, f"must be 1-{self.max_len} characters")
+        if any(c in _NEVER_IN_TEXT or c == "\n" for c in text):
+            raise self._fail(text, "must not contain '$', '/' or CR")
+        return text
+
+    @override
+    def annotation(self) -> Any:
+        return Annotated[
+            str,
+            Field(
+                min_length=1,
+                max_length=self.max_len,
+                pattern=r"^[^$/\r\n]+$",
+                description=self.rule(),
+            ),
+        ]
+
+    @override
+    def samples(self) -> tuple[str, ...]:
+        return ("OK001", "123ABC*+-%", "X" * self.max_len)
+
+
+@dataclass(frozen=True)
+class Label(Param):
+    """A user-program label: one half-width character (see ``_LABEL_RE``)."""
+
+    host: bool = False  # the host can start only at labels other than a-z (§10 G, Ver 1.18)
+
+    @override
+    def strict(self) -> str:
+        return _LABEL_RE.replace("a-z", "") if self.host else _LABEL_RE
+
+    @override
+    def loose(self) -> str:
+        return "."
+
+    @override
+    def rule(self) -> str:
+        extra = "; lower-case a-z only as jump targets" if self.host else ""
+        return f"{self.name}: one half-width character, not A-Z, '$', '#' or '/'{extra}"
+
+    @override
+    def decode(self, text: str) -> str:
+        if not re.fullmatch(self.strict(), text):
+            raise self._fail(text, "is not a usable label character")
+        return text
+
+    @override
+    def annotation(self) -> Any:
+        return Annotated[str, Field(pattern="^" + self.strict() + "$", description=self.rule())]
+
+    @override
+    def samples(self) -> tuple[str, ...]:
+        return ("1", "9", "@", "\uff71") if self.host else ("1", "a", "z", "@")
+
+
+#: Jump operands (§12 jumps): +DT and -DT relative to the next statement (0-999), ADT
+#: absolute from statement 1 (1-999), G{LB}{DT} relative to label LB (1-999).
+_JUMP_RE = r"(?:[+-]\d{1,3}|A\d{1,3}|G" + _LABEL_RE + r"\d{1,3})"
+
+
+@dataclass(frozen=True)
+class Jump(Param):
+    """A jump operand of /J, /JB, /JC ... /SC: ``+n``, ``-n``, ``An`` or ``G<label>n``."""
+
+    @override
+    def strict(self) -> str:
+        return _JUMP_RE
+
+    @override
+    def loose(self) -> str:
+        return ".+"
+
+    @override
+    def rule(self) -> str:
+        return f"{self.name}: +n or -n (0-999), An (1-999) or G<label>n (1-999)"
+
+    @override
+    def decode(self, text: str) -> str:
+        if not re.fullmatch(_JUMP_RE, text):
+            raise self._fail(text, "is not a jump operand (+n, -n, An or G<label>n)")
+        if jump_count(text) < 1 and text[0] in "AG":
+            raise self._fail(text, "absolute and label jumps count from 1")
+        return text
+
+    @override
+    def annotation(self) -> Any:
+        return Annotated[str, Field(pattern="^" + _JUMP_RE + "$", description=self.rule())]
+
+    @override
+    def samples(self) -> tuple[str, ...]:
+        return ("+1", "-2", "+0", "-999", "A1", "A999", "G11", "Ga999")
+
+
+def jump_count(operand: str) -> int:
+    """The number of a jump operand: after its sign, after ``A``, or after ``G`` and the label."""
+    return int(operand[2:] if operand[0] == "G" else operand[1:])
