@@ -105,7 +105,6 @@ class Param(ABC):
     def annotation(self) -> Any:
         """The pydantic type of the model field that holds this parameter."""
 
-
     def _fail(self, text: str, why: str) -> ParameterError:
         return ParameterError(f"{self.name}={text!r}: {why}", field=self.name, rule=self.rule())
 
@@ -146,7 +145,6 @@ class Dec(Param):
     @override
     def annotation(self) -> Any:
         return Annotated[int, Field(ge=self.lo, le=self.hi, description=self.rule())]
-
 
 
 @dataclass(frozen=True)
@@ -209,7 +207,6 @@ class HexDigit(Param):
         return Annotated[int, Field(ge=self.lo, le=self.hi, description=self.rule())]
 
 
-
 @dataclass(frozen=True)
 class IntChoice(Param):
     """One digit out of a fixed set (motor number 1/2, counter 1/2, baud code 0-2)."""
@@ -239,7 +236,6 @@ class IntChoice(Param):
         return Annotated[Literal[self.values], Field(description=self.rule())]
 
 
-
 @dataclass(frozen=True)
 class CharChoice(Param):
     """One character out of a fixed set (direction +/-, buffer A-F, comparison <,=,>)."""
@@ -267,7 +263,6 @@ class CharChoice(Param):
     @override
     def annotation(self) -> Any:
         return Annotated[Literal[self.values], Field(description=self.rule())]
-
 
 
 @dataclass(frozen=True)
@@ -316,7 +311,6 @@ class Position(Param):
         return Annotated[int, Field(ge=POSITION_MIN, le=POSITION_MAX, description=self.rule())]
 
 
-
 @dataclass(frozen=True)
 class Text(Param):
     """Free text (``/CO`` message): printable, no '$', '/' or CR, at most ``max_len``."""
@@ -356,7 +350,6 @@ class Text(Param):
         ]
 
 
-
 @dataclass(frozen=True)
 class Label(Param):
     """A user-program label: one half-width character (see ``_LABEL_RE``)."""
@@ -385,7 +378,6 @@ class Label(Param):
     @override
     def annotation(self) -> Any:
         return Annotated[str, Field(pattern="^" + self.strict() + "$", description=self.rule())]
-
 
 
 #: Jump operands (§12 jumps): +DT and -DT relative to the next statement (0-999), ADT
@@ -420,7 +412,6 @@ class Jump(Param):
     @override
     def annotation(self) -> Any:
         return Annotated[str, Field(pattern="^" + _JUMP_RE + "$", description=self.rule())]
-
 
 
 def jump_count(operand: str) -> int:
