@@ -56,7 +56,8 @@ class ParameterError(InvalidInputError):
 class ProgramError(InvalidInputError):
     """A user program breaks a rule of chapters 11-12.
 
-    ``step`` counts statements the way the device's ``GN`` does: the first ``/`` is step 0.
+    ``step`` counts statements the way the device's ``GN`` does: the first statement is step 1
+    (``//`` counts two); step 0 means the program as a whole (empty, or a bad first character).
     """
 
     def __init__(

@@ -71,7 +71,7 @@ _NEVER_IN_TEXT = "$/\r"
 #: not upper-case A-Z (they would collide with GA, GC, GE, GN, GR, GS, GW); lower-case a-z
 #: only as jump targets. Half-width katakana (U+FF61..U+FF9F) are allowed; see
 #: docs/manual-notes.md "Label characters".
-_LABEL_RE = r"[0-9a-z!\"%&'()*+,\-.:;<=>?@\[\\\]^_`{|}~\u00a5\uff61-\uff9f]"
+_LABEL_RE = r"[0-9a-z!\"%&'()*+,\-.:;<=>?@\[\\\]^_`{|}~\uff61-\uff9f]"
 
 
 @dataclass(frozen=True)
@@ -302,7 +302,7 @@ class Position(Param):
         value = int(text)
         if not POSITION_MIN <= value <= POSITION_MAX:
             raise self._fail(text, "out of the 24-bit position range")
-        if text[0] == "+" and value > SIGNED_MAX:  # pragma: no cover - 7 digits cannot exceed
+        if text[0] == "+" and value > SIGNED_MAX:
             raise self._fail(text, f"signed positions end at +{SIGNED_MAX}")
         return value
 

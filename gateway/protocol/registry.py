@@ -95,6 +95,12 @@ def _decode(entry: Entry, match: re.Match[str]) -> dict[str, object]:
     return values
 
 
+def _position_field(entry: Entry, message: str) -> str | None:
+    """The position a model-level range check is about (those errors carry no location)."""
+    names = [p.name for p in entry.form.params if isinstance(p, Position)]
+    return next((n for n in names if f"{n}=" in message), names[0] if names else None)
+
+
 def _rules(params: Iterable[Param]) -> str:
     return "; ".join(p.rule() for p in params)
 
@@ -183,13 +189,17 @@ class Registry:
             return entry.model.model_validate(values, context=context)
         except ValidationError as exc:
             error = exc.errors()[0]
-            field = str(error["loc"][0]) if error["loc"] else None
+            field = str(error["loc"][0]) if error["loc"] else _position_field(entry, error["msg"])
             param = next((p for p in entry.form.params if p.name == field), None)
             rule = param.rule() if param else _rules(entry.form.params)
             raise ParameterError(f"{entry.key}: {error['msg']}", field=field, rule=rule) from None
 
     def _explain(self, text: str, context: Context) -> InvalidInputError:
         """The most useful error for text that fits no form."""
+        other = Context.PROGRAM if context is Context.HOST else Context.HOST
+        if self.matches(text, other):
+            where = "only inside a user program" if other is Context.PROGRAM else "only by the host"
+            return CommandFormError(f"{text!r} can be used {where}", field="text", rule=where)
         usable = [e for e in self._entries if e.usable_in(context)]
         best: tuple[int, int, ParameterError] | None = None
         for entry in usable:
@@ -212,10 +222,6 @@ class Registry:
                     best = (ranked[0], ranked[1], error)
         if best is not None:
             return best[2]
-        other = Context.PROGRAM if context is Context.HOST else Context.HOST
-        if self.matches(text, other):
-            where = "only inside a user program" if other is Context.PROGRAM else "only by the host"
-            return CommandFormError(f"{text!r} can be used {where}", field="text", rule=where)
         leads = [e for e in usable if e.lead and text.startswith(e.lead)]
         if leads:
             longest = max(len(e.lead) for e in leads)

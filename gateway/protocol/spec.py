@@ -178,6 +178,8 @@ class CommandSpec:
     modes: frozenset[int] = ALL_MODES
     while_moving: bool = True
     user_program: bool = True  # the EEPROM column ○: usable as '/cmd' in a user program
+    #: False for the host commands refused while a user program runs (§11-3 5.)
+    while_program: bool = True
     persisted_by: Persist = Persist.NONE
     default: str | None = None  # factory setting (§16), as the manual writes it
     notes: tuple[str, ...] = field(default=())

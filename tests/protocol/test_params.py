@@ -38,6 +38,7 @@ from gateway.protocol.params import (
         (Position("pp"), "123456789", "at most 8 digits"),
         (Position("pp"), "-12345678", "at most 7 digits"),
         (Position("pp"), "-9999999", "24-bit"),
+        (Position("pp"), "+9000000", "signed positions end at +8388607"),
         (Text("dt", max_len=20), "", "1-20 characters"),
         (Text("dt", max_len=20), "X" * 21, "1-20 characters"),
         (Text("dt", max_len=20), "a$b", "'$'"),

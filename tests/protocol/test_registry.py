@@ -192,6 +192,8 @@ def test_program_context_reads_the_same_letters_differently() -> None:
     assert parse_statement("OH8000").key == "OH{hs}"
     with pytest.raises(CommandFormError, match="only by the host"):
         parse_statement("GSS")  # GSS is not usable in a program (EEPROM column ×)
+    with pytest.raises(CommandFormError, match="only by the host"):
+        parse_statement("GA")  # not a label 'A': the host's auto-start query
 
 
 def test_positions_follow_the_management_format() -> None:
@@ -204,8 +206,9 @@ def test_positions_follow_the_management_format() -> None:
     assert parse("216777215", positions=unsigned).params() == {"pp": 16_777_215}
     with pytest.raises(ParameterError, match=r"outside -8388608\.\.8388607"):
         parse("28388608", positions=signed)
-    with pytest.raises(ParameterError, match="unsigned management"):
+    with pytest.raises(ParameterError, match="unsigned management") as caught:
         parse("2+1000", positions=unsigned)
+    assert caught.value.field == "pp"
     # signed management writes every position with its sign (docs/manual-notes.md)
     assert parse("21000", positions=signed).wire() == "2+1000"
     with pytest.raises(ValidationError, match="signed management"):
@@ -279,3 +282,28 @@ def test_catalog_facts_are_consistent() -> None:
             assert not spec.form_while_moving(form), entry.key
         if form.selects_motor:
             assert form.motor_param == "mt", entry.key
+
+
+def test_mode_restrictions_inside_a_command() -> None:
+    def modes(text: str) -> frozenset[int]:
+        command = parse(text)
+        return command.spec.form_modes(command.form)
+
+    assert modes("D01B") == {0, 1, 2}
+    assert modes("D81B") == {0, 1}  # CLR1 as an output: not in mode 2, use DS (§10 D)
+    assert modes("Q") == {0, 1, 2}  # the step-out query
+    assert modes("Q400") == modes("QD") == modes("QD1") == {0, 2}  # the period (§10 Q)
+    assert modes("PA4") == {0, 1}  # QSE in mode 0 needs PA and PB (§10 QSE)
+    with pytest.raises(ParameterError, match="one of 0, 1"):
+        parse("D02B")
+
+
+def test_forms_that_change_state_as_a_side_effect_are_not_resent() -> None:
+    for text in ("K1,3F", "K1,3", "KC", "GWT100", "GAS", "EE1", "EL0", "ER1", "SUM1", "SUM0"):
+        assert not parse(text).form.idempotent, text
+    assert parse("K0").form.idempotent
+
+
+def test_host_commands_refused_while_a_program_runs() -> None:
+    refused = {s.mnemonic for s in REGISTRY.commands if not s.while_program}
+    assert refused == {"G", "I", "IL", "IW", "AW", "DW", "AL", "DL"}  # §11-3 5.

@@ -17,12 +17,18 @@ ACTION = Effect.ACTION
 QUERY = Effect.QUERY
 SETTING = Effect.SETTING
 
+#: A framing change alters how the next exchange is written or answered, so a blind resend
+#: after a lost reply is sent or read in the wrong framing (§10 EE, EL, ER, SUM): the
+#: scheduler reads the framing back instead of resending.
+FRAMING_CHANGE = False
+
 CMD_AL = CommandSpec(
     mnemonic="AL",
     title="Load position table from EEPROM to RAM",
     section="10",
     scope=Scope.CONTROLLER,
     while_moving=False,
+    while_program=False,
     forms=(form("AL", ACK, SETTING, "copy the A data written with AW from EEPROM to RAM"),),
 )
 
@@ -34,6 +40,7 @@ CMD_AW = CommandSpec(
     while_moving=False,
     user_program=False,
     persisted_by=Persist.AW,
+    while_program=False,
     forms=(form("AW", ACK_THEN_DONE, ACTION, "write the A data (RAM) to EEPROM"),),
 )
 
@@ -43,6 +50,7 @@ CMD_DL = CommandSpec(
     section="10",
     scope=Scope.CONTROLLER,
     while_moving=False,
+    while_program=False,
     forms=(form("DL", ACK, SETTING, "copy the data written with DW from EEPROM to RAM"),),
 )
 
@@ -54,6 +62,7 @@ CMD_DW = CommandSpec(
     while_moving=False,
     user_program=False,
     persisted_by=Persist.DW,
+    while_program=False,
     forms=(
         form(
             "DW",
@@ -73,8 +82,10 @@ CMD_EE = CommandSpec(
     persisted_by=Persist.DW,
     default="0",
     forms=(
-        form("EE1", ACK, SETTING, "enable echo back"),
-        form("EE0", ACK, SETTING, "disable echo back (default)"),
+        form("EE1", ACK, SETTING, "enable echo back", idempotent_override=FRAMING_CHANGE),
+        form(
+            "EE0", ACK, SETTING, "disable echo back (default)", idempotent_override=FRAMING_CHANGE
+        ),
         form("EE", DIGIT, QUERY, "query whether echo back is enabled"),
     ),
 )
@@ -98,8 +109,14 @@ CMD_EL = CommandSpec(
     persisted_by=Persist.DW,
     default="0",
     forms=(
-        form("EL1", ACK, SETTING, "enable: general-command reply becomes '>' CR"),
-        form("EL0", ACK, SETTING, "disable (default)"),
+        form(
+            "EL1",
+            ACK,
+            SETTING,
+            "enable: general-command reply becomes '>' CR",
+            idempotent_override=FRAMING_CHANGE,
+        ),
+        form("EL0", ACK, SETTING, "disable (default)", idempotent_override=FRAMING_CHANGE),
         form("EL", DIGIT, QUERY, "query whether the function is enabled"),
     ),
 )
@@ -113,8 +130,14 @@ CMD_ER = CommandSpec(
     persisted_by=Persist.DW,
     default="0",
     forms=(
-        form("ER1", ACK, SETTING, "enable: a command with a command error is answered '>@'"),
-        form("ER0", ACK, SETTING, "disable (default)"),
+        form(
+            "ER1",
+            ACK,
+            SETTING,
+            "enable: a command with a command error is answered '>@'",
+            idempotent_override=FRAMING_CHANGE,
+        ),
+        form("ER0", ACK, SETTING, "disable (default)", idempotent_override=FRAMING_CHANGE),
         form("ER", DIGIT, QUERY, "query whether the function is enabled"),
     ),
 )
@@ -147,8 +170,14 @@ CMD_SUM = CommandSpec(
     persisted_by=Persist.DW,
     default="0",
     forms=(
-        form("SUM1", ACK, SETTING, "enable the checksum"),
-        form("SUM0", ACK, SETTING, "disable the checksum (default)"),
+        form("SUM1", ACK, SETTING, "enable the checksum", idempotent_override=FRAMING_CHANGE),
+        form(
+            "SUM0",
+            ACK,
+            SETTING,
+            "disable the checksum (default)",
+            idempotent_override=FRAMING_CHANGE,
+        ),
         form("SUM", DIGIT, QUERY, "query"),
     ),
 )

@@ -129,9 +129,18 @@ CMD_D = CommandSpec(
             "D{bit}{value}B",
             ACK,
             SETTING,
-            "set one output bit (0-7 general outputs, 8 = CLR1, 9 = CLR2)",
-            Dec("bit", lo=0, hi=9, digits=1),
-            Dec("value", lo=0, hi=1, digits=1),
+            "set one general output bit 0-7",
+            IntChoice("bit", values=(0, 1, 2, 3, 4, 5, 6, 7)),
+            IntChoice("value", values=(0, 1)),
+        ),
+        form(
+            "D{clr}{value}B",
+            ACK,
+            SETTING,
+            "set CLR1 (8) or CLR2 (9) as a general output (not in mode 2: use DS there)",
+            IntChoice("clr", values=(8, 9)),
+            IntChoice("value", values=(0, 1)),
+            modes=frozenset({0, 1}),
         ),
         form(
             "DA{dc}{du}{dl}",
@@ -168,6 +177,9 @@ CMD_DS = CommandSpec(
 
 CMD_EA = CommandSpec(
     mnemonic="EA",
+    notes=(
+        "bit 4 (EMS) and bit 5 (INP) are common to both motors; EAH/EAL set both motors (§10 EA)",
+    ),
     title="Sensor input logic (A / B contact)",
     section="10",
     scope=Scope.PER_MOTOR,
@@ -213,6 +225,7 @@ CMD_K = CommandSpec(
             HexDigit("dt", lo=1, hi=7),
             HexDigit("du", lo=0, hi=15),
             HexDigit("dl", lo=0, hi=15),
+            idempotent_override=False,  # also clears the limit and EMS status bits (§10 K)
         ),
         form(
             "K{dt},{bt}",
@@ -221,9 +234,11 @@ CMD_K = CommandSpec(
             "watch errors DT and turn ON one output bit",
             HexDigit("dt", lo=1, hi=7),
             Dec("bt", lo=0, hi=7, digits=1),
+            idempotent_override=False,  # also clears the limit and EMS status bits (§10 K)
         ),
         form("K0", ACK, SETTING, "disable the function (default)"),
-        form("KC", ACK, SETTING, "(KC, p.111) turn OFF the bits set by form I/II"),
+        # KC clears the limit/EMS status bits and the outputs an error turned on (§10 K IV)
+        form("KC", ACK, ACTION, "turn OFF the output bits set by K forms I/II"),
         form("K", ERROR_OUTPUT, QUERY, "query the setting"),
     ),
 )

@@ -51,7 +51,15 @@ CMD_2 = CommandSpec(
         form(
             "2{pp}", ACK, SETTING, "set the position pulse count pp used by 3, 4, 5", Position("pp")
         ),
-        form("2", ACK, SETTING, "store the current position as the position data"),
+        # △: the device takes it while moving but stores the start position of the move
+        # (§10 2 注意点); the gateway does not send it while moving.
+        form(
+            "2",
+            ACK,
+            SETTING,
+            "store the current position as the position data",
+            while_moving=False,
+        ),
         form("2D", POSITION, QUERY, "query the position data"),
     ),
 )

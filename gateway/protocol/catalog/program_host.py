@@ -27,6 +27,7 @@ CMD_G = CommandSpec(
     section="10",
     scope=Scope.CONTROLLER,
     user_program=False,
+    while_program=False,
     forms=(
         form("G", ACK, ACTION, "run the user program in RAM from its first command"),
         form("G{lb}", ACK, ACTION, "run the user program from a label", Label("lb", host=True)),
@@ -43,8 +44,8 @@ CMD_GA = CommandSpec(
     persisted_by=Persist.GA,
     default="0",
     forms=(
-        form("GAS", ACK, SETTING, "enable auto-start"),
-        form("GAR", ACK, SETTING, "disable auto-start (default)"),
+        form("GAS", ACK, ACTION, "enable auto-start (written to EEPROM at once)"),
+        form("GAR", ACK, ACTION, "disable auto-start (written to EEPROM at once, default)"),
         form("GA", DIGIT, QUERY, "query auto-start"),
     ),
 )
@@ -175,7 +176,7 @@ CMD_GWT = CommandSpec(
         form(
             "GWT{time}",
             ACK,
-            SETTING,
+            ACTION,  # restarts the countdown from the new time (§10 GWT)
             "rewrite the time of the timer that is counting",
             Dec("time", lo=0, hi=32767, digits=5),
         ),
@@ -189,6 +190,7 @@ CMD_I = CommandSpec(
     scope=Scope.CONTROLLER,
     user_program=False,
     persisted_by=Persist.IW,
+    while_program=False,
     forms=(form("I", ACK, ACTION, "(manual ①) open program reception"),),
 )
 
@@ -199,6 +201,7 @@ CMD_IL = CommandSpec(
     scope=Scope.CONTROLLER,
     while_moving=False,
     user_program=False,
+    while_program=False,
     forms=(form("IL", ACK, SETTING, "copy the EEPROM program into RAM"),),
 )
 
@@ -219,6 +222,7 @@ CMD_IW = CommandSpec(
     while_moving=False,
     user_program=False,
     persisted_by=Persist.IW,
+    while_program=False,
     forms=(form("IW", ACK_THEN_DONE, ACTION, "store the RAM program in EEPROM"),),
 )
 

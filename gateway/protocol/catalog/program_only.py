@@ -75,6 +75,7 @@ CMD_P_BS = CommandSpec(
 
 CMD_P_CC = CommandSpec(
     mnemonic="/CC",
+    notes=("sends >$B# CT nnnnn CR (counter and 5 digits) to the host (§12 /CC)",),
     title="Send counter value to host",
     section="12",
     scope=Scope.CONTROLLER,
@@ -99,6 +100,7 @@ CMD_P_CD = CommandSpec(
 
 CMD_P_CO = CommandSpec(
     mnemonic="/CO",
+    notes=("sends > text CR to the host (§12 /CO example: >123ABC*+-% CR)",),
     title="Send a string to host",
     section="12",
     scope=Scope.CONTROLLER,
@@ -395,6 +397,7 @@ CMD_P_LD = CommandSpec(
 
 CMD_P_O = CommandSpec(
     mnemonic="/O",
+    notes=("with PT 3 sends the buffer DU DL to the host (§12 /O)",),
     title="Data buffer output (port or host)",
     section="12",
     scope=Scope.CONTROLLER,

@@ -18,6 +18,9 @@ ACTION = Effect.ACTION
 QUERY = Effect.QUERY
 SETTING = Effect.SETTING
 
+#: The step-out period page marks E0 ○ E1 × E2 ○ (§10 Q; §13 "usable in mode 2 too").
+MODES_0_2 = frozenset({0, 2})
+
 CMD_E = CommandSpec(
     mnemonic="E",
     title="Operating mode",
@@ -188,7 +191,8 @@ CMD_PA = CommandSpec(
     title="Encoder multiplication (x1/x2/x4)",
     section="10",
     scope=Scope.PER_MOTOR,
-    modes=frozenset({1}),
+    # E0 too: QSE (mode 0) needs PA and PB set first (§10 QSE); docs/manual-notes.md
+    modes=frozenset({0, 1}),
     persisted_by=Persist.DW,
     default="1",
     forms=(
@@ -208,7 +212,8 @@ CMD_PB = CommandSpec(
     title="Encoder-to-motor pulse ratio",
     section="10",
     scope=Scope.PER_MOTOR,
-    modes=frozenset({1}),
+    # E0 too: QSE (mode 0) needs PA and PB set first (§10 QSE); docs/manual-notes.md
+    modes=frozenset({0, 1}),
     while_moving=False,
     persisted_by=Persist.DW,
     default="10",
@@ -226,9 +231,12 @@ CMD_PB = CommandSpec(
 
 CMD_Q = CommandSpec(
     mnemonic="Q",
-    title="Step-out detected? (query)",
+    title="Step-out query; step-out sensor ON/OFF period",
     section="10",
     scope=Scope.PER_MOTOR,
+    persisted_by=Persist.DW,
+    default="400",
+    notes=("the default and DW persistence belong to the period Q{s1} (§10 DW list, §16)",),
     forms=(
         form("Q", DIGIT, QUERY, "query whether a step-out has been detected"),
         form(
@@ -237,14 +245,16 @@ CMD_Q = CommandSpec(
             SETTING,
             "set the pulses of one ON/OFF period of the step-out sensor",
             Dec("s1", lo=100, hi=65535, digits=5),
+            modes=MODES_0_2,
         ),
-        form("QD", DEC5, QUERY, "(QD) query the period of the selected motor"),
+        form("QD", DEC5, QUERY, "(QD) query the period of the selected motor", modes=MODES_0_2),
         form(
             "QD{mt}",
             DEC5,
             QUERY,
             "(QD{MT}) query the period of a given motor",
             IntChoice("mt", values=(1, 2)),
+            modes=MODES_0_2,
         ),
     ),
 )
