@@ -5,6 +5,8 @@ from __future__ import annotations
 from typing import Any
 
 from gateway.protocol.params import (
+    POSITION_MAX,
+    POSITION_MIN,
     CharChoice,
     Dec,
     Digits,
@@ -29,7 +31,7 @@ def _param(param: Param) -> dict[str, Any]:
     if isinstance(param, (IntChoice, CharChoice)):
         out["values"] = list(param.values)
     if isinstance(param, Position):
-        out["min"], out["max"] = -8_388_608, 16_777_215
+        out["min"], out["max"] = POSITION_MIN, POSITION_MAX
     return out
 
 

@@ -18,6 +18,7 @@ from typing import Any, Generic, TypeAlias, TypeVar
 
 from gateway.errors import ReplyFormatError
 from gateway.protocol.params import POSITION_MIN, SIGNED_MAX, UNSIGNED_MAX
+from gateway.protocol.program import CAPACITY_BYTES
 from gateway.protocol.reply_values import (
     ClrState,
     ConditionFlags,
@@ -91,7 +92,7 @@ ReplyValue: TypeAlias = (
 #: '>', '$', the body number and CR around the data of a plain query reply (§9-2 form II).
 REPLY_OVERHEAD = 4
 #: User-program capacity in bytes (§3, §10 I, IR): no ``IR`` reply can be longer.
-PROGRAM_MAX = 4416
+PROGRAM_MAX = CAPACITY_BYTES
 
 _V = TypeVar("_V")
 

@@ -12,6 +12,8 @@ from dataclasses import dataclass
 from enum import IntEnum, IntFlag, StrEnum
 from typing import ClassVar
 
+from gateway.protocol.params import UNSIGNED_MAX
+
 __all__ = [
     "ClrState",
     "ConditionFlags",
@@ -303,7 +305,7 @@ class ErrorOutput:
 
 #: Upper bounds of a speed-change point (§10 N form I): sp up to 16,383, pj up to 16,777,215.
 SPEED_MAX = 16_383
-REMAINING_MAX = 16_777_215
+REMAINING_MAX = UNSIGNED_MAX
 
 
 @dataclass(frozen=True)

@@ -12,6 +12,7 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass, field
 from enum import StrEnum
+from functools import cached_property
 
 from gateway.protocol.params import IntChoice, Param, Position
 
@@ -131,7 +132,7 @@ class Form:
         if names != [p.name for p in self.params]:
             raise ValueError(f"{self.syntax!r}: placeholders {names} != params {self.params}")
 
-    @property
+    @cached_property  # wire() walks it for every command sent: split the syntax once
     def tokens(self) -> tuple[str | Param, ...]:
         """The syntax split into literal text and parameters, in order."""
         by_name = {p.name: p for p in self.params}

@@ -8,7 +8,7 @@ keeps the curve up to t and replaces the rest. Everything counts pulses done sin
 started (always >= 0); the simulator adds them to the position in the direction of motion.
 
 No clocks, no I/O: time is a float of simulated seconds. Positions are whole pulses; a move
-ends exactly on its target. Ambiguities and our choices: docs/notes-kinematics.md.
+ends exactly on its target. Ambiguities and our choices: docs/manual-notes.md.
 """
 
 from __future__ import annotations
@@ -19,8 +19,9 @@ from dataclasses import dataclass, replace
 from enum import StrEnum
 from functools import cached_property
 
+# An N point is the same value the N{pn} query reports; one type serves both.
+from gateway.protocol.reply_values import SpeedPoint
 from gateway.sim.profile import (
-    SPEED_DATA_MAX,
     Piece,
     Segment,
     SpeedSettings,
@@ -30,7 +31,6 @@ from gateway.sim.profile import (
 
 __all__ = [
     "EPSILON",
-    "REMAINING_MAX",
     "MotionKind",
     "MotionProfile",
     "SpeedLevel",
@@ -43,8 +43,6 @@ __all__ = [
 #: Slack when turning a continuous position into whole pulses: float sums of ramps and
 #: cruises may land a hair below the integer they add up to.
 EPSILON = 1e-6
-#: Largest remaining-pulse count of an N point (§10 N: 0-16,777,215).
-REMAINING_MAX = 16_777_215
 #: Bisection steps: enough to reach adjacent floats on any range of times or speeds.
 _BISECTION_STEPS = 200
 
@@ -61,20 +59,6 @@ class SpeedLevel(StrEnum):
 
     LOW = "low"
     HIGH = "high"
-
-
-@dataclass(frozen=True)
-class SpeedPoint:
-    """One N point (§10 N): go to speed data ``speed`` once fewer than ``remaining`` are left."""
-
-    speed: int
-    remaining: int
-
-    def __post_init__(self) -> None:
-        if not 0 <= self.speed <= SPEED_DATA_MAX:
-            raise ValueError(f"N speed {self.speed} outside 0-{SPEED_DATA_MAX}")
-        if not 0 <= self.remaining <= REMAINING_MAX:
-            raise ValueError(f"N remaining pulses {self.remaining} outside 0-{REMAINING_MAX}")
 
 
 def _build(
