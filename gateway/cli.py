@@ -11,15 +11,13 @@ from gateway.errors import InvalidInputError
 from gateway.protocol.describe import catalog_json, catalog_table
 from gateway.protocol.params import PositionFormat
 from gateway.protocol.registry import Context, parse
+from gateway.sim.cli import add_sim_parser
 
 __all__ = ["main"]
 
-#: What `rc233-gateway run` (and so `make run`) cannot start yet, and where it will come from.
-MISSING = (
-    "the simulated RC-233 loop (issue 3: rc233-gateway sim)",
-    "the loop scheduler (issue 4)",
-    "the REST/WebSocket API (issue 5: rc233-gateway serve)",
-)
+#: What `rc233-gateway run` (and so `make run`) serves until the API exists (issue 5): the
+#: simulated loop on TCP, where any serial program or `socket://` URL reaches it.
+RUN_SIM_ARGS = ("--tcp", "127.0.0.1:5233", "--control", "127.0.0.1:5234", "--bodies", "1,2,3")
 
 
 def _catalog(args: argparse.Namespace) -> int:
@@ -55,13 +53,14 @@ def _parse(args: argparse.Namespace) -> int:
 
 
 def _run(_: argparse.Namespace) -> int:
-    print("rc233-gateway: the protocol core is ready; try")
-    print("  .venv/bin/rc233-gateway catalog         # every command of the manual")
-    print("  .venv/bin/rc233-gateway parse OH4000    # command text -> typed command")
-    print("Not built yet, so nothing is served:")
-    for item in MISSING:
-        print(f"  - {item}")
-    return 0
+    print("rc233-gateway: the REST/WebSocket API comes with issue 5; until then `make run`")
+    print("serves the simulated RC-233 loop (bodies 1, 2, 3) on TCP, as a serial device server")
+    print("would. Reach it with pyserial's socket://127.0.0.1:5233 at 9600 bps, e.g.")
+    print("  .venv/bin/python -c \"import serial; s = serial.serial_for_url(")
+    print("      'socket://127.0.0.1:5233', timeout=1); s.write(b'$1\\r'); print(s.read(5))\"")
+    print("and drive its faults (EMS, sensors, power, line cut) on the JSON-lines control port")
+    print("127.0.0.1:5234 (README: 'The simulator'). Ctrl-C stops it.", flush=True)
+    return main(["sim", *RUN_SIM_ARGS])
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -76,6 +75,7 @@ def build_parser() -> argparse.ArgumentParser:
     prs.add_argument("--program", action="store_true", help="as a user-program statement")
     prs.add_argument("--positions", choices=[f.value for f in PositionFormat])
     prs.set_defaults(func=_parse)
+    add_sim_parser(sub)
     run = sub.add_parser("run", help="what `make run` starts")
     run.set_defaults(func=_run)
     return parser

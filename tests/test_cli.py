@@ -2,9 +2,15 @@
 
 from __future__ import annotations
 
+import asyncio
 import json
+import os
+import signal
+import sys
+from pathlib import Path
 
 import pytest
+import serial  # type: ignore[import-untyped]
 
 from gateway.cli import main
 
@@ -65,6 +71,30 @@ def test_parse_in_program_context_and_with_positions(capsys: pytest.CaptureFixtu
     assert json.loads(capsys.readouterr().out)["wire"] == "2+1000"
 
 
-def test_run_says_what_is_missing(capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["run"]) == 0
-    assert "simulated RC-233 loop" in capsys.readouterr().out
+async def test_run_serves_the_simulated_loop_on_tcp(tmp_path: Path) -> None:
+    """`make run` (until the API exists): the simulator on TCP, reachable as socket://."""
+    env = {**os.environ, "XDG_DATA_HOME": str(tmp_path)}  # keep the EEPROM files out of $HOME
+    gateway = Path(sys.executable).parent / "rc233-gateway"
+    process = await asyncio.create_subprocess_exec(
+        str(gateway), "run", stdout=asyncio.subprocess.PIPE, env=env
+    )
+    assert process.stdout is not None
+    try:
+        lines: list[str] = []
+        while not any("listening on socket://127.0.0.1:5233" in line for line in lines):
+            line = await asyncio.wait_for(process.stdout.readline(), 20)
+            assert line, "".join(lines)
+            lines.append(line.decode())
+
+        def talk() -> tuple[bytes, bytes]:
+            port = serial.serial_for_url("socket://127.0.0.1:5233", timeout=5)
+            with port:
+                port.write(b"$1\r")
+                status = port.read(5)
+                port.write(b"$3OH\r")
+                return status, port.read(9)
+
+        assert await asyncio.to_thread(talk) == (b">$10\r", b">$305000\r")
+    finally:
+        process.send_signal(signal.SIGTERM)
+        assert await asyncio.wait_for(process.wait(), 20) == 0

@@ -5,11 +5,12 @@ Device side (the simulator): the ``encode_*`` reply helpers write exactly what t
 sends for every combination of the framing switches, and ``CommandReader`` cuts the host's byte
 stream into command frames. The reply *parser* of the host lives in ``reply_parser``.
 
-The choices where the manual is silent are in ``docs/notes-framing.md``; the ones that decide
-bytes here: a '#'-series controller answers with '#' where the '$' series writes '$'; '?' and
-the one-character replies never carry a checksum or CR; with EE1 + EL1 a general reply is the
-echo followed by CR; the reply to ``SUM1``/``EE1``/``EE0`` uses the framing in force when the
-command arrived, the reply to ``EL1``/``EL0`` the new one (§10 EL says so).
+The choices where the manual is silent are in ``docs/manual-notes.md`` ("Framing and the
+reply stream"); the ones that decide bytes here: a '#'-series controller answers with '#'
+where the '$' series writes '$'; '?' and the one-character replies never carry a checksum or
+CR; with EE1 + EL1 a general reply is the echo followed by CR; the reply to ``SUM1``/``EE1``/
+``EE0`` uses the framing in force when the command arrived, the reply to ``EL1``/``EL0`` the
+new one (§10 EL says so).
 """
 
 from __future__ import annotations

@@ -13,7 +13,8 @@ one '/', so the step is the statement's 1-based index, and ``//`` (a command fol
 empty NULL wait) is two steps. Step 0 means "no statement": refusals about the whole text.
 
 Uploading is not this module's business (no I/O); ``upload_chunks`` only cuts the text into
-pieces for the transport to send. Decisions where the manual is silent: docs/notes-program.md.
+pieces for the transport to send. Decisions where the manual is silent: docs/manual-notes.md,
+"User programs".
 """
 
 from __future__ import annotations

@@ -6,7 +6,7 @@ builds its replies with it). Widths are exact: a 5-digit value is exactly 5 digi
 are upper case, and anything else raises ``ReplyFormatError`` naming the format and the rule,
 never another exception. ``encode_reply(decode_reply(t)) == t`` for every text that decodes,
 so there is one spelling per value. Choices where the manual is unclear:
-docs/notes-replies.md.
+docs/manual-notes.md, "Replies".
 """
 
 from __future__ import annotations
@@ -242,7 +242,8 @@ def _parse_program_state(data: str) -> ProgramState:
 
 
 def _parse_program_text(data: str) -> str:
-    # Empty means no program in RAM; the manual does not show that reply (notes-replies.md).
+    # Empty means no program in RAM; the manual does not show that reply
+    # (docs/manual-notes.md, "`IR` reply").
     if data and not data.startswith("/"):
         raise ValueError("a user program starts with '/'")
     if any(c in "$\r\n" for c in data):  # '$' starts a command, CR ends the frame (§10 I)

@@ -23,7 +23,7 @@ Rules and where they come from:
   query output '$B#data' CR, '>text' CR and '>$B#...' CR. They never answer a command and
   do not end the expectation.
 
-Ambiguous in the manual, decided in ``docs/notes-framing.md``:
+Ambiguous in the manual, decided in ``docs/manual-notes.md`` ("Framing and the reply stream"):
 
 * With ER1 and EL0, '>' may be followed by '@'; the parser decides on the next byte or at
   ``line_quiet()``. With EL0 a '>' while a query is pending likewise waits (the device answers a

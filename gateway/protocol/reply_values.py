@@ -333,7 +333,8 @@ class ProgramState(StrEnum):
 
 _VERSION_RE = re.compile(r"[0-9]\.[0-9]{2}")
 # The manual prints the stamp as '××-××-××' without saying what it is (a date, presumably);
-# letters are allowed so that a ROM with a letter in it still reads (docs/notes-replies.md).
+# letters are allowed so that a ROM with a letter in it still reads (docs/manual-notes.md,
+# "Replies").
 _STAMP_RE = re.compile(r"[0-9A-Za-z]{2}-[0-9A-Za-z]{2}-[0-9A-Za-z]{2}")
 
 

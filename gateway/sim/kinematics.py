@@ -122,7 +122,8 @@ def _trapezoid_pieces(
     cruise and final ramps do not fit, the speed turns at a peak (or trough) between them
     (§7-3, triangle). When even the direct ramp v -> final does not fit (a speed change too
     close to the target), the motor ramps towards ``final`` and stops on the target
-    at whatever speed it has reached: it never overshoots (docs/notes-kinematics.md).
+    at whatever speed it has reached: it never overshoots (docs/manual-notes.md, "Simulator
+    motion").
     """
     d1 = abs(cruise**2 - v**2) / (2 * alpha)
     d2 = abs(cruise**2 - final**2) / (2 * alpha)
@@ -168,7 +169,7 @@ def _plan_tail(
     ``cruise_data`` is the speed data the move heads for (None: OH); ``pending`` the N points
     still to fire. A point that fires before the final ramp cuts the plan and heads for its
     speed; points that would fire once the final ramp has begun are ignored (§10 N 重要な注意
-    事項 3 guarantees nothing when ramps overlap; docs/notes-kinematics.md).
+    事項 3 guarantees nothing when ramps overlap; docs/manual-notes.md, "Simulator motion").
     """
     t, p, v = state
     segments: list[Segment] = []

@@ -3,7 +3,7 @@
 Pure arithmetic: speed data (OH, OL, OS, OC, OX) to physical quantities (pps, pps/s, s), the
 S-curve constraint the controller enforces when OH, OL or OC is set, and the jerk-limited ramp
 between two speeds, as a list of constant-jerk pieces. ``kinematics`` strings pieces into
-motion profiles. Decisions on ambiguous points are in docs/notes-kinematics.md.
+motion profiles. Decisions on ambiguous points are in docs/manual-notes.md, "Simulator motion".
 """
 
 from __future__ import annotations
@@ -164,7 +164,8 @@ def speed_constraint_violation(oh: int, ol: int, oc: int) -> str | None:
     §7-1 and §10 OC/OH/OL: X = (OH - OL) / (2 × (200 - OC)) × OC must be <= 4,095, <= 16,383 - OH
     and <= 16,383 - OL, otherwise setting OH, OL or OC is a command error and the old value
     stays. |OH - OL| is used: with the signed difference the third rule could never fail
-    (see docs/notes-kinematics.md). Compared in integers (X × 2 × (200 - OC)), so no rounding.
+    (see docs/manual-notes.md, "Simulator motion"). Compared in integers (X × 2 × (200 - OC)),
+    so no rounding.
     """
     numerator = abs(oh - ol) * oc
     denominator = 2 * (200 - oc)

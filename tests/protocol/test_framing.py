@@ -1,7 +1,7 @@
 """Framing: wire text, checksums, command frames, device replies, the simulator's reader.
 
 Every vector marked "manual" is copied from the RC-233 manual (§10 SUM, EE, EL, ER, §12 /CO);
-see docs/notes-framing.md for the decisions the other vectors hold.
+see docs/manual-notes.md ("Framing and the reply stream") for the decisions the other vectors hold.
 """
 
 from __future__ import annotations

@@ -39,7 +39,8 @@ CH11_4_EX2 = "/G1/25000/3//END/G2/26000/3//END/G3/27000/3//END"
 CH11_4_EX3 = "//EC//22000//3//?//T10//4//?//END"
 CH12_SC = "/SCG11/END/G1/D00/SR/END"
 CH12_TB = "/TB100/G1//4//JTG11/END"
-CH12_TS = "/TS10/0//22000/3//END"  # reconstructed from the OCR, see docs/notes-program.md
+# Reconstructed from the OCR, see docs/manual-notes.md, "User programs".
+CH12_TS = "/TS10/0//22000/3//END"
 CH10_GN = "/7/T100/S/END"
 # §13-2 ② example 3 sends the program in these two pieces; only the second carries CR.
 CH13_2_PIECES = (

@@ -1,7 +1,7 @@
 """The host's reply parser: manual vectors, every framing combination, robustness properties.
 
 Vectors marked "manual" are copied from the RC-233 manual (§9-2, §10 EE, EL, ER, SUM, §12);
-docs/notes-framing.md has the decisions the others hold.
+docs/manual-notes.md ("Framing and the reply stream") has the decisions the others hold.
 """
 
 from __future__ import annotations

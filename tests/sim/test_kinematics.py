@@ -593,7 +593,7 @@ def test_changes_with_s_curve_keep_the_running_motion() -> None:
 def test_settings_changed_under_a_running_s_ramp_stay_sane() -> None:
     # With OC != 0 the new values are only recorded; a later SS or L ramps with them. When the
     # motor is accelerating harder than they allow, the ramp starts from acceleration 0 at
-    # once rather than overshoot (docs/notes-kinematics.md).
+    # once rather than overshoot (docs/manual-notes.md, "Simulator motion").
     s = SpeedSettings(oc=50)
     gentle = SpeedSettings(oh=600, ol=100, os=32767, oc=50)
     jog = plan_jog(s).to_high(0.0).with_settings(s.tacc / 2, gentle)

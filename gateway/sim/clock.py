@@ -1,0 +1,219 @@
+"""Simulated time: the clock, the actions it has due, and the record of what happened when.
+
+Simulated time is float seconds of device time, running ``scale`` times faster than real time.
+
+The simulator's logic never reads a clock; it takes ``now`` as an argument. Only the line
+(``loop.SimLoop``) asks a ``SimClock`` what time it is when a host byte or a control request
+arrives, and its ``Scheduler`` turns simulated deadlines into real delays for one asyncio
+timer. One scale speeds up everything at once: wire times, motion, timers and EEPROM writes
+(issue 3, ``--time-scale``). ``LineLog`` keeps what passed on the line, stamped with
+simulated time, for tests and the control surface's ``trace``.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import functools
+import heapq
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from enum import StrEnum
+from typing import Any
+
+__all__ = ["LineLog", "LineRecord", "RecordKind", "Scheduler", "SimClock"]
+
+
+class SimClock:
+    """Simulated seconds since the clock was made, ``scale`` times faster than real time.
+
+    ``time_fn`` is the real clock (monotonic seconds); the default is the one asyncio's event
+    loop uses, so ``real_delay`` values are right for ``loop.call_later``. Tests can pass their
+    own function and move it by hand.
+    """
+
+    def __init__(
+        self,
+        scale: float = 1.0,
+        *,
+        time_fn: Callable[[], float] = time.monotonic,
+        start: float = 0.0,
+    ) -> None:
+        if not scale > 0:
+            raise ValueError(f"time scale must be > 0, not {scale!r}")
+        self.scale = float(scale)
+        self._time_fn = time_fn
+        self._origin = time_fn()
+        self._start = start
+
+    def now(self) -> float:
+        """The simulated time now."""
+        return self._start + (self._time_fn() - self._origin) * self.scale
+
+    def real_delay(self, until: float) -> float:
+        """Real seconds from now until simulated time ``until`` (0 if it has passed)."""
+        return max(0.0, (until - self.now()) / self.scale)
+
+    def real_seconds(self, sim_seconds: float) -> float:
+        """A simulated duration in real seconds."""
+        return sim_seconds / self.scale
+
+    def __repr__(self) -> str:
+        return f"SimClock(scale={self.scale}, now={self.now():.6f})"
+
+
+@dataclass(order=True)
+class _Task:
+    time: float
+    seq: int
+    action: Callable[[], None] = field(compare=False)
+
+
+class Scheduler:
+    """Actions due at simulated times, run in time order, each at its own time.
+
+    Inside a running asyncio loop one timer, set ``clock.real_delay`` ahead, wakes it for the
+    next action. Outside one (a test that moves time by hand) ``run_due`` does the work.
+    ``time`` is the simulated time of the action running now, or of the last one; it never
+    goes back, so the controllers always see time move forward.
+    """
+
+    def __init__(self, clock: SimClock) -> None:
+        self.clock = clock
+        self.time = clock.now()
+        self._tasks: list[_Task] = []
+        self._seq = 0
+        self._timer: asyncio.TimerHandle | None = None
+        self._timer_at = float("inf")
+        self.closed = False
+
+    def now(self) -> float:
+        """Simulated time now: the clock, but never before what has already been done."""
+        self.time = max(self.time, self.clock.now())
+        return self.time
+
+    def at(self, time: float, action: Callable[..., None], *args: Any) -> None:
+        """Run ``action(*args)`` at simulated ``time`` (call ``kick`` when done scheduling)."""
+        self._seq += 1
+        heapq.heappush(self._tasks, _Task(time, self._seq, functools.partial(action, *args)))
+
+    @property
+    def pending(self) -> int:
+        """How many actions wait."""
+        return len(self._tasks)
+
+    def run_due(self, now: float) -> None:
+        """Run every action due by ``now``, in time order (ties: in the order scheduled)."""
+        while self._tasks and self._tasks[0].time <= now:
+            task = heapq.heappop(self._tasks)
+            self.time = max(self.time, task.time)
+            task.action()
+        self.time = max(self.time, now)
+
+    def kick(self) -> None:
+        """Set the asyncio timer for the first action (no-op outside an event loop)."""
+        if not self._tasks or self.closed:
+            return
+        first = self._tasks[0].time
+        if self._timer is not None and self._timer_at <= first:
+            return
+        try:
+            loop = asyncio.get_running_loop()
+        except RuntimeError:
+            return
+        if self._timer is not None:
+            self._timer.cancel()
+        self._timer_at = first
+        self._timer = loop.call_later(self.clock.real_delay(first), self._wake)
+
+    def _wake(self) -> None:
+        self._timer, self._timer_at = None, float("inf")
+        self.run_due(self.clock.now())
+        self.kick()
+
+    def close(self) -> None:
+        """Stop the timer; nothing runs any more by itself."""
+        self.closed = True
+        if self._timer is not None:
+            self._timer.cancel()
+            self._timer = None
+
+
+class RecordKind(StrEnum):
+    """What a ``LineRecord`` reports."""
+
+    HEARD = "heard"  # a host frame, program text or stray bytes, read off the line
+    REPLY = "reply"  # a reply reached the host (data: the bytes as the host got them)
+    NONE = "none"  # a frame gets no reply (note: why)
+    LATER = "later"  # an unsolicited message reached the host
+    ECHO = "echo"  # an inspection-mode echo reached the host
+    LOST = "lost"  # host bytes, an unsolicited message or an echo was lost (note: why)
+    FAULT = "fault"  # a fault was injected (note: its kind)
+    POWER = "power"  # a controller was switched off or on
+    CUT = "cut"  # the line was cut or restored
+    BAUD = "baud"  # the line's rate changed
+    HOST = "host"  # a host connected or disconnected (note)
+
+
+@dataclass(frozen=True)
+class LineRecord:
+    """One thing that happened on the line, at simulated time ``time``."""
+
+    seq: int
+    time: float
+    kind: RecordKind
+    data: bytes = b""
+    body: str | None = None
+    ref: int = 0  # the number of the host frame this belongs to (1, 2, ...); 0 = none
+    note: str = ""
+
+
+class LineLog:
+    """The last ``size`` (up to twice that) records, numbered from 0; one can wait for one."""
+
+    def __init__(self, size: int = 10_000) -> None:
+        self._size = size
+        self._records: list[LineRecord] = []  # numbered next_seq - len(_records) ... next_seq - 1
+        self.next_seq = 0
+        self._waiters: list[asyncio.Future[None]] = []
+
+    def add(
+        self,
+        time: float,
+        kind: RecordKind,
+        data: bytes = b"",
+        body: str | None = None,
+        ref: int = 0,
+        note: str = "",
+    ) -> LineRecord:
+        """Append a record and wake the waiters."""
+        record = LineRecord(self.next_seq, time, kind, data, body, ref, note)
+        self.next_seq += 1
+        self._records.append(record)
+        if len(self._records) > 2 * self._size:
+            del self._records[: -self._size]
+        waiters, self._waiters = self._waiters, []
+        for waiter in waiters:
+            if not waiter.done():
+                waiter.set_result(None)
+        return record
+
+    def since(self, seq: int) -> Iterator[LineRecord]:
+        """The records numbered ``seq`` and later that are still kept."""
+        first = self.next_seq - len(self._records)
+        return iter(self._records[max(0, seq - first) :])
+
+    async def wait_for(
+        self, match: Callable[[LineRecord], bool], since: int, timeout: float
+    ) -> LineRecord:
+        """The first record from ``since`` on that ``match``es; TimeoutError after ``timeout``."""
+        loop = asyncio.get_running_loop()
+        deadline = loop.time() + timeout
+        while True:
+            for record in self.since(since):
+                if match(record):
+                    return record
+            since = self.next_seq
+            waiter = loop.create_future()
+            self._waiters.append(waiter)
+            await asyncio.wait_for(waiter, max(0.0, deadline - loop.time()))
