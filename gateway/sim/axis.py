@@ -8,8 +8,9 @@ to their ``now`` as well (their events wait for the next ``advance``). Time neve
 The axis keeps its mechanical position (scene coordinates, what sensors see) and the position
 counter (what command 6 reports) apart: homing and ``R`` change the counter, ``slip`` (lost
 pulses) the mechanics. Rules around the axis (command errors, modes, EP wrap, flags, EMS state)
-belong to the controller. Choices where the manual is silent: docs/manual-notes.md,
-"Simulator axis, sensors and origin searches".
+belong to the controller. What runs on the axis is a ``course.Motion`` (or a search's
+``course.Pause``); a search is driven by ``search.Search`` along ``homing``'s step plans. Choices
+where the manual is silent: docs/manual-notes.md, "Simulator axis, sensors and origin searches".
 """
 
 from __future__ import annotations
@@ -17,41 +18,16 @@ from __future__ import annotations
 import math
 from collections import deque
 from collections.abc import Callable
-from dataclasses import dataclass, replace
-from enum import StrEnum
 
 from gateway.protocol.reply_values import SensorBits, SensorLogic
-from gateway.sim.homing import (
-    INP_TIMEOUT,
-    Ending,
-    Finish,
-    Halt,
-    HomingMethod,
-    HomingSetup,
-    Outcome,
-    PulseClr,
-    Run,
-    Sequence,
-    Speed,
-    Track,
-    Until,
-    WaitInp,
-    Watch,
-    plan,
-    watch,
-)
-from gateway.sim.kinematics import (
-    MotionKind,
-    MotionProfile,
-    SpeedLevel,
-    SpeedPoint,
-    plan_jog,
-    plan_move,
-    plan_pulse,
-)
-from gateway.sim.profile import Segment, SpeedSettings
+from gateway.sim.course import AxisEvent, AxisEventKind, Leg, Motion, Pause
+from gateway.sim.homing import Ending, HomingMethod, HomingSetup, Outcome, Until, plan
+from gateway.sim.kinematics import MotionProfile, SpeedPoint, plan_jog, plan_move, plan_pulse
+from gateway.sim.profile import SpeedSettings
 from gateway.sim.scene import AxisScene, Direction, SensorName, SensorReader
+from gateway.sim.search import Search, readings
 
+# The controller and the tests take the event types and the search settings from here too.
 __all__ = [
     "Axis",
     "AxisBusy",
@@ -60,7 +36,6 @@ __all__ = [
     "Direction",
     "HomingMethod",
     "HomingSetup",
-    "Leg",
     "SensorName",
 ]
 
@@ -68,82 +43,8 @@ __all__ = [
 LEGS_KEPT = 100
 
 
-class AxisEventKind(StrEnum):
-    """What the controller must know about: it latches flags and outputs from these."""
-
-    LIMIT = "limit"  # a limit stopped pulse output (or a search ended in an error stop)
-    EMERGENCY = "emergency"  # EMS stopped the axis
-    HOMED = "homed"  # a search ended; the counter is 0 at the origin
-    CLEAR = "clear"  # mode 2: CLR output ON for 100 µs during a search (§10 0X, DS ①)
-
-
-@dataclass(frozen=True)
-class AxisEvent:
-    """Something that happened at ``time`` (simulated seconds)."""
-
-    time: float
-    kind: AxisEventKind
-
-
-@dataclass(frozen=True)
-class Leg:
-    """One finished stretch of motion, in mechanical positions (for tests and the display)."""
-
-    start: float
-    end: float
-    start_position: int
-    end_position: int
-
-
 class AxisBusy(RuntimeError):
     """A motion was started while the axis is still moving (the controller's command error)."""
-
-
-@dataclass
-class _Motion:
-    """The running profile, where it started, and what ends it early (``due``, ``cause``)."""
-
-    profile: MotionProfile
-    direction: Direction
-    origin: int  # mechanical position at pulse 0
-    step: Run | None = None  # the search step it runs; None for 1-8, B and friends
-    halting: bool = False  # Halt.TO_LOW: the condition was met, the ramp down runs
-    due: float = math.inf
-    cause: Ending = Ending.DONE
-    width: int = 0
-    armed: float = math.inf
-
-    @property
-    def end_time(self) -> float:
-        return min(self.due, self.profile.end_time)
-
-    def position(self, t: float) -> int:
-        return self.origin + self.direction * self.profile.position(t)
-
-
-@dataclass
-class _Pause:
-    """A search waiting for INP (mode 2): moving as far as the status flags go (§10 0X ⑤)."""
-
-    end_time: float
-    ending: Ending
-
-
-def _low_run(settings: SpeedSettings, start: float, pulses: int) -> MotionProfile:
-    """``pulses`` pulses at Low speed, no ramp (fL is the start and stop speed, §7-1).
-
-    A jog with an end, so that SS stops it on the next pulse like any Low speed motion.
-    """
-    fl = settings.fl
-    return MotionProfile(
-        segments=(Segment(start, pulses / fl, 0.0, fl),),
-        settings=settings,
-        kind=MotionKind.JOG,
-        level=SpeedLevel.LOW,
-        distance=pulses,
-        end=pulses,
-        decel_start=start,
-    )
 
 
 class Axis:
@@ -154,9 +55,8 @@ class Axis:
         self._reader = SensorReader(scene)
         self._rest = scene.start  # mechanical position while nothing runs
         self._offset = -scene.start  # counter - mechanical position; 0 at power-on
-        self._task: _Motion | _Pause | None = None
-        self._sequence: Sequence | None = None
-        self._homing_settings = SpeedSettings()
+        self._task: Motion | Pause | None = None
+        self._search: Search | None = None
         self._events: list[AxisEvent] = []
         self._time = -math.inf
         self._legs: deque[Leg] = deque(maxlen=LEGS_KEPT)
@@ -192,7 +92,7 @@ class Axis:
     def slip(self, now: float, pulses: int) -> None:
         """Lost pulses: the mechanics move by ``pulses`` (CW positive); the counter does not."""
         self._advance(now)
-        if isinstance(self._task, _Motion):
+        if isinstance(self._task, Motion):
             self._task.origin += pulses
         else:
             self._rest += pulses
@@ -215,12 +115,12 @@ class Axis:
     @property
     def homing(self) -> bool:
         """Whether an origin search is under way."""
-        return self._sequence is not None
+        return self._search is not None
 
     def mechanical(self, now: float) -> int:
         """Where the axis really is, in scene coordinates."""
         self._advance(now)
-        return self._task.position(now) if isinstance(self._task, _Motion) else self._rest
+        return self._task.position(now) if isinstance(self._task, Motion) else self._rest
 
     def counter(self, now: float) -> int:
         """The position counter (unbounded; the controller wraps it to 24 bits for EP)."""
@@ -229,7 +129,7 @@ class Axis:
     def speed(self, now: float) -> float:
         """Pulse rate [pps], negative when turning CCW."""
         self._advance(now)
-        if not isinstance(self._task, _Motion):
+        if not isinstance(self._task, Motion):
             return 0.0
         return self._task.direction * self._task.profile.speed(now)
 
@@ -267,23 +167,23 @@ class Axis:
         if distance:
             direction = Direction.CW if distance > 0 else Direction.CCW
             profile = plan_move(settings, abs(distance), start=now, points=points)
-            self._start(now, _Motion(profile, direction, self._rest))
+            self._start(now, Motion(profile, direction, self._rest))
 
     def jog(self, now: float, direction: Direction, settings: SpeedSettings) -> None:
         """7 / 8: turn at Low speed until S, SS or the limit (§10 7, 8)."""
         self._idle(now)
-        self._start(now, _Motion(plan_jog(settings, start=now), direction, self._rest))
+        self._start(now, Motion(plan_jog(settings, start=now), direction, self._rest))
 
     def step(self, now: float, direction: Direction, settings: SpeedSettings) -> None:
         """7* / 8*: one pulse (§10 7*, 8*)."""
         self._idle(now)
-        self._start(now, _Motion(plan_pulse(settings, start=now), direction, self._rest))
+        self._start(now, Motion(plan_pulse(settings, start=now), direction, self._rest))
 
     def stop(self, now: float) -> None:
         """S: pulse output stops at once; a search is abandoned (§10 S, §10 0 注意点)."""
         self._advance(now)
-        self._sequence = None
-        if isinstance(self._task, _Motion):
+        self._search = None
+        if isinstance(self._task, Motion):
             self._task.profile = self._task.profile.stop(now)
             self._settle(now)
         self._task = None
@@ -291,9 +191,9 @@ class Axis:
     def slow_stop(self, now: float) -> None:
         """SS: down to Low speed, then stop; a search is abandoned (§10 SS)."""
         self._advance(now)
-        self._sequence = None
+        self._search = None
         task = self._task
-        if isinstance(task, _Motion):
+        if isinstance(task, Motion):
             task.step, task.halting = None, False
             task.profile = task.profile.slow_stop(now)
             self._rearm(now)
@@ -320,15 +220,10 @@ class Axis:
         0Q needs the step-out sensor ON where the axis stands (§10 0Q): ``ValueError`` if not.
         """
         self._idle(now)
-        here = self._rest
-        start = Outcome(
-            org=self._reader.reads(SensorName.ORG, here),
-            ez=self._reader.reads(SensorName.EZ, here),
-        )
+        start = readings(self._reader, self._rest)
         if method is HomingMethod.STEP_OUT and not start.ez:
             raise ValueError("0Q needs the step-out sensor ON at the start (§10 0Q)")
-        self._homing_settings = settings
-        self._sequence = plan(method, setup, start)
+        self._search = Search(plan(method, setup, start), settings, self._reader)
         self._continue(now, None)
         self._advance(now)
 
@@ -350,11 +245,11 @@ class Axis:
         """Apply a speed command to a plain motion (searches keep their course)."""
         self._advance(now)
         task = self._task
-        if isinstance(task, _Motion) and task.step is None:
+        if isinstance(task, Motion) and task.step is None:
             task.profile = change(task.profile)
             self._rearm(now)
 
-    def _start(self, now: float, motion: _Motion) -> None:
+    def _start(self, now: float, motion: Motion) -> None:
         self._task = motion
         self._rearm(now)
         self._advance(now)
@@ -368,50 +263,19 @@ class Axis:
 
     def _rearm(self, t: float) -> None:
         """Work out when the running motion ends early: its limit or its step's condition."""
-        task = self._task
-        if not isinstance(task, _Motion):
-            return
-        profile = task.profile
-        track = Track(
-            self._reader,
-            task.origin,
-            task.direction,
-            profile,
-            base_k=profile.position(t),
-            base_t=max(t, profile.start),
-            k_max=profile.end,
-        )
-        limit = SensorName.CW_LIMIT if task.direction is Direction.CW else SensorName.CCW_LIMIT
-        k_limit = track.first(limit, True, track.base_k)  # §4-4: ON stops pulse output
-        t_limit = math.inf if k_limit is None else track.time_of(k_limit)
-        if task.halting:
-            seen = Watch(profile.segments[-1].t0)  # when the ramp down to fL ends
-        elif task.step is not None:
-            seen = watch(track if k_limit is None else replace(track, k_max=k_limit), task.step)
-        else:
-            seen = Watch()
-        task.width, task.armed = seen.width, seen.armed
-        if t_limit <= seen.time:  # a tie goes to the limit
-            task.due, task.cause = t_limit, Ending.LIMIT
-        else:
-            task.due, task.cause = seen.time, Ending.DONE
+        if isinstance(self._task, Motion):
+            self._task.rearm(self._reader, t)
 
-    def _finish(self, task: _Motion | _Pause) -> None:
+    def _finish(self, task: Motion | Pause) -> None:
         """The running task's time is up: settle it and go on with the search, if any."""
         t = task.end_time
-        if isinstance(task, _Pause):
+        if isinstance(task, Pause):
             self._task = None
-            self._continue(t, self._outcome(task.ending))
+            self._continue(t, readings(self._reader, self._rest, task.ending))
             return
-        ending = Ending.DONE
-        if task.due <= task.profile.end_time:
-            ending = task.cause
-            step = task.step
-            if ending is Ending.DONE and step and step.halt is Halt.TO_LOW and not task.halting:
-                task.profile, task.halting = task.profile.to_low(t), True
-                self._rearm(t)
-                return
-            task.profile = task.profile.stop(t)
+        ending = task.expire(self._reader)
+        if ending is None:
+            return
         self._settle(t)
         self._task = None
         if task.step is not None and task.step.until is Until.EZ_WIDTH:
@@ -420,60 +284,24 @@ class Axis:
             if ending is Ending.LIMIT:
                 self._events.append(AxisEvent(t, AxisEventKind.LIMIT))
             return
-        self._continue(t, self._outcome(ending, task))
+        self._continue(t, readings(self._reader, self._rest, ending, task))
 
     def _settle(self, t: float) -> None:
         task = self._task
-        assert isinstance(task, _Motion)
+        assert isinstance(task, Motion)
         self._rest = task.position(t)
         self._legs.append(Leg(task.profile.start, t, task.origin, self._rest))
 
-    def _outcome(self, ending: Ending, task: _Motion | None = None) -> Outcome:
-        reads = self._reader.reads
-        return Outcome(
-            ending,
-            org=reads(SensorName.ORG, self._rest),
-            ez=reads(SensorName.EZ, self._rest),
-            org_seen=task is not None and task.armed <= task.end_time,
-            width=0 if task is None else task.width,
-        )
-
     def _continue(self, t: float, outcome: Outcome | None) -> None:
         """Feed the search what happened; carry out its next actions up to one that takes time."""
-        sequence = self._sequence
-        while sequence is not None:
-            try:
-                action = next(sequence) if outcome is None else sequence.send(outcome)
-            except StopIteration:
-                break
-            if isinstance(action, Run):
-                self._task = _Motion(self._run_profile(t, action), action.direction, self._rest)
-                self._task.step = action
-                self._rearm(t)
-                return
-            if isinstance(action, WaitInp):
-                delay = self.scene.inp_delay
-                if delay <= INP_TIMEOUT:
-                    self._task = _Pause(t + delay, Ending.DONE)
-                else:
-                    self._task = _Pause(t + INP_TIMEOUT, Ending.TIMEOUT)
-                return
-            if isinstance(action, PulseClr):
-                self._events.append(AxisEvent(t, AxisEventKind.CLEAR))
-                outcome = self._outcome(Ending.DONE)
-                continue
-            if isinstance(action, Finish):
-                if action.homed:
-                    self._offset = -self._rest
-                kind = AxisEventKind.HOMED if action.homed else AxisEventKind.LIMIT
-                self._events.append(AxisEvent(t, kind))
-                break
-        self._sequence = None
-
-    def _run_profile(self, t: float, run: Run) -> MotionProfile:
-        settings = self._homing_settings
-        if run.until is Until.DISTANCE:
-            return _low_run(settings, t, run.pulses)
-        if run.speed is Speed.HIGH:
-            return plan_jog(settings, start=t).to_high(t)
-        return plan_jog(settings, start=t)
+        if self._search is None:
+            return
+        step = self._search.proceed(t, outcome, self._rest, self.scene.inp_delay)
+        self._events += step.events
+        if step.task is not None:
+            self._task = step.task
+            self._rearm(t)
+            return
+        if step.homed:
+            self._offset = -self._rest
+        self._search = None

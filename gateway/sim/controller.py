@@ -21,7 +21,7 @@ happened meanwhile (limit or EMS stops, homing completions) is latched into the 
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 from gateway.errors import InvalidInputError
@@ -127,7 +127,16 @@ class Controller:
         image = self.eeprom.image
         self.settings = Settings.from_dw_image(image.dw) if image.dw else Settings()
         self.table = list(image.aw) if image.aw else [0] * POSITION_TABLE_SIZE
-        self.axes = {n: Axis(self._scenes.get(n, AxisScene())) for n in (1, 2)}
+        # The machine stays where it is through a power cycle; only the counters start at 0.
+        old = getattr(self, "axes", {})
+        self.axes = {
+            n: Axis(
+                replace(self._scenes.get(n, AxisScene()), start=old[n].mechanical(now))
+                if n in old
+                else self._scenes.get(n, AxisScene())
+            )
+            for n in (1, 2)
+        }
         for n, axis in self.axes.items():
             axis.logic = self.settings.motors[n].logic
         self.flags = Flags()
@@ -135,6 +144,13 @@ class Controller:
         self.baud = Baud(image.es) if image.es is not None else Baud.B9600
         self.rt = Runtime.power_on(image.iw, bool(image.ga))
         self._now = now
+
+    def power_off(self, now: float) -> None:
+        """Switch off: no pulses without power, so a moving motor stops where it is."""
+        self.advance(now)
+        for axis in self.axes.values():
+            axis.stop(now)
+        self._power.on = False
 
     def power_cycle(self, now: float) -> Response:
         """Switch off and on again: RAM lost, EEPROM kept; an erase in progress is lost too."""

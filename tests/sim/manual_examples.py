@@ -11,8 +11,8 @@ Three tables:
   reply must match byte for byte.
 - `NEEDS_CONTROL`: examples whose state cannot be reached with commands alone (a sensor ON,
   EMS, line noise, a power cycle, the loop baud, unsolicited messages). `needs` says what, and
-  `Step.control` names the action to take before that step's frame. Not run yet: the lead wires
-  them to the control surface.
+  `Step.control` names the action to take before that step's frame. Run by
+  test_manual_examples.py through the control surface (`Controls`) of the `wire` fixture.
 - `PART_TWO`: examples of part II (modes 1/2, step-out detection, general I/O, K, P, timer,
   user programs). Data only.
 
@@ -26,6 +26,10 @@ Conventions:
   `R` so that positions are known). Reconstructions of OCR damage are said in `note` too.
 - `wait_idle`: after this step the test waits until the motor stops (it polls "", which clears
   bits 1-3 of the status flags but not the condition flags of "9" (§10 "" 注意点)).
+- `Step.control` words (several joined with "; "): "force M:SENSOR=on|off" (motor M, sensor
+  cw_limit / ccw_limit / org / ez), "ems press", "noise" (the next frame is taken as noise: a
+  one-shot nak), "power_cycle", "loop baud N" (the host's rate), "inputs B,B,..." (general
+  inputs ON). `needs["scene"]` asks for a scene other than the default.
 - In NEEDS_CONTROL, a step with `send == b""` means "send nothing: the next bytes the
   controller sends by itself are `reply`" (e.g. the `$1*` of DW), and `reply == b""` means
   "no reply at all".
@@ -1194,10 +1198,20 @@ NEEDS_CONTROL: tuple[Example, ...] = (
     Example(
         "§10 CL",
         3224,
-        (S(b"$1CL\r", b">$121\r", control="force 1:cw_limit=on; ems press"),),
-        setup="CW limit of motor 1 ON and EMS ON, everything else OFF",
+        (
+            S(
+                b"$1CL\r",
+                b">$121\r",
+                control="force 1:cw_limit=on; force 1:org=off; force 1:ez=off; ems press",
+            ),
+        ),
+        setup="CW limit of motor 1 ON and EMS ON, everything else OFF (the default scene may "
+        "hold the step-out sensor ON, so it is forced OFF)",
         note="応答例 image lost; text: CWLS (bit 0) and EMS (bit 5) ON, 'HEX データ 21'.",
-        needs={"sensor": "motor 1 cw_limit ON", "ems": "pressed"},
+        needs={
+            "sensor": "motor 1 cw_limit ON, org and ez (step-out sensor) OFF",
+            "ems": "pressed",
+        },
     ),
     Example(
         "§10 CL",

@@ -21,10 +21,6 @@ import signal
 import sys
 from pathlib import Path
 
-import pytest
-
-pytest.importorskip("serial", reason="pyserial is needed for the customer's program")
-
 GATEWAY = Path(sys.executable).parent / "rc233-gateway"
 
 PROGRAM = r'''

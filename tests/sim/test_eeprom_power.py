@@ -20,6 +20,7 @@ from pathlib import Path
 
 import pytest
 
+from gateway.sim.scene import AxisScene
 from tests.sim.direct import Direct
 
 ACK = b">"
@@ -507,3 +508,21 @@ def test_a_write_interrupted_by_power_off_sends_no_done_message(tmp_path: Path) 
     power_cycle(direct)
     direct.advance(WRITE_WAIT)
     assert direct.due() == []
+
+
+def test_power_off_stops_the_motor_and_power_on_keeps_the_machine_where_it_is() -> None:
+    # Without power there are no pulses; after power-on the counter reads 0 (RAM lost,
+    # §9-1) but the axis did not move: a limit or ORG still sits at the same distance.
+    direct = Direct()
+    ctl = direct["1"]
+    assert direct.cmd("7") == b">"  # jog CW at 500 pps from the scene's start
+    direct.advance(1.0)
+    ctl.power_off(direct.now)
+    stopped_at = ctl.axes[1].mechanical(direct.now)
+    direct.advance(1.0)
+    assert ctl.axes[1].mechanical(direct.now) == stopped_at
+    assert direct.cmd("") == b""  # a switched-off controller hears nothing
+    direct.power_cycle()
+    assert direct.cmd("6") == b">$100000000\r"
+    assert ctl.axes[1].mechanical(direct.now) == stopped_at
+    assert 495 <= stopped_at - AxisScene().start <= 505  # about 1 s at fL = 500 pps

@@ -16,6 +16,7 @@ from collections.abc import AsyncIterator
 from pathlib import Path
 
 import pytest
+import serial  # type: ignore[import-untyped]
 
 from gateway.sim.clock import RecordKind
 from gateway.sim.loop import SimLoop
@@ -71,7 +72,7 @@ async def test_pty_answers_like_a_serial_port(loop: SimLoop) -> None:
 
 
 async def test_pty_with_pyserial(loop: SimLoop) -> None:
-    serial = pytest.importorskip("serial")
+
     pty = PtyLine(loop)
     path = pty.start()
 
@@ -123,7 +124,7 @@ async def test_tcp_takes_one_host_and_refuses_a_second(
 
 
 async def test_tcp_with_pyserial_socket_url(loop: SimLoop) -> None:
-    serial = pytest.importorskip("serial")
+
     server = await serve_tcp(loop, "127.0.0.1", 0)
     port = server.sockets[0].getsockname()[1]
 

@@ -13,7 +13,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 from gateway.sim.axis import Direction, HomingMethod, HomingSetup
-from gateway.sim.dispatch import handles
+from gateway.sim.dispatch import Refused, handles
 from gateway.sim.flags import Error
 from gateway.sim.memory import POSITION_TABLE_SIZE
 
@@ -56,6 +56,10 @@ def home(ctl: Controller, cmd: Any, now: float) -> None:
     motor = _motor_for_motion(ctl, cmd, homing=True)
     if motor is None:
         return
+    if cmd.key == "0Q" and not ctl.axes[motor].sensors(now).step_out_sensor:
+        # §10 0Q: the step-out sensor must read ON when 0Q starts ("EA" inverts it otherwise);
+        # the manual does not say what happens if not: refused as a command error.
+        raise Refused("0Q needs the step-out sensor ON (§10 0Q)")
     m = ctl.settings.motors[motor]
     shared = ctl.settings.shared
     setup = HomingSetup(

@@ -1,0 +1,98 @@
+"""An origin search under way on one axis: it feeds the step plan and turns steps into tasks.
+
+``homing.plan`` says what comes next; ``Search.proceed`` turns a ``Run`` into a ``Motion`` at
+the search speeds (a counted run at Low speed without ramp, §7-1; High speed ramps up from fL,
+§10 0A, 0H), a ``WaitInp`` into a ``Pause`` until INP or the 3 s timeout (§10 0X 注意), a
+``PulseClr`` (mode 2, §10 0X, §10 DS ①) and the ``Finish`` into events. The ``Axis`` carries
+the tasks out and reports back what happened (``readings``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from gateway.sim.course import AxisEvent, AxisEventKind, Motion, Pause, Task, low_run
+from gateway.sim.homing import (
+    INP_TIMEOUT,
+    Ending,
+    Outcome,
+    PulseClr,
+    Run,
+    Sequence,
+    Speed,
+    Until,
+    WaitInp,
+)
+from gateway.sim.kinematics import MotionProfile, plan_jog
+from gateway.sim.profile import SpeedSettings
+from gateway.sim.scene import SensorName, SensorReader
+
+__all__ = ["Next", "Search", "readings"]
+
+
+def readings(
+    reader: SensorReader, here: int, ending: Ending = Ending.DONE, motion: Motion | None = None
+) -> Outcome:
+    """What the axis reports after a step: how it ended, what ORG / EZ read at ``here``.
+
+    ``motion`` is the run that ended, if any: whether it had confirmed ORG, the width it measured.
+    """
+    return Outcome(
+        ending,
+        org=reader.reads(SensorName.ORG, here),
+        ez=reader.reads(SensorName.EZ, here),
+        org_seen=motion is not None and motion.armed <= motion.end_time,
+        width=0 if motion is None else motion.width,
+    )
+
+
+@dataclass(frozen=True)
+class Next:
+    """What the search asks of the axis: a task to run, else it is over (``homed`` or not)."""
+
+    task: Task | None = None
+    events: list[AxisEvent] = field(default_factory=list)  # CLEAR ..., HOMED or LIMIT at the end
+    homed: bool = False  # the origin is here: the counter becomes 0
+
+
+class Search:
+    """The step plan of one search and the speeds it runs at."""
+
+    def __init__(self, sequence: Sequence, settings: SpeedSettings, reader: SensorReader) -> None:
+        self._sequence = sequence
+        self._settings = settings
+        self._reader = reader
+
+    def proceed(self, t: float, outcome: Outcome | None, here: int, inp_delay: float) -> Next:
+        """Feed the plan ``outcome`` (None: start it); go on up to an action that takes time.
+
+        ``here`` is the axis's mechanical position, ``inp_delay`` how long the driver takes to
+        report INP (the scene's).
+        """
+        events: list[AxisEvent] = []
+        while True:
+            try:
+                action = next(self._sequence) if outcome is None else self._sequence.send(outcome)
+            except StopIteration:
+                return Next(events=events)
+            if isinstance(action, Run):
+                motion = Motion(self._profile(t, action), action.direction, here, step=action)
+                return Next(motion, events)
+            if isinstance(action, WaitInp):
+                if inp_delay <= INP_TIMEOUT:
+                    return Next(Pause(t + inp_delay, Ending.DONE), events)
+                return Next(Pause(t + INP_TIMEOUT, Ending.TIMEOUT), events)
+            if isinstance(action, PulseClr):
+                events.append(AxisEvent(t, AxisEventKind.CLEAR))
+                outcome = readings(self._reader, here)
+                continue
+            kind = AxisEventKind.HOMED if action.homed else AxisEventKind.LIMIT
+            return Next(events=[*events, AxisEvent(t, kind)], homed=action.homed)
+
+    def _profile(self, t: float, run: Run) -> MotionProfile:
+        settings = self._settings
+        if run.until is Until.DISTANCE:
+            return low_run(settings, t, run.pulses)
+        if run.speed is Speed.HIGH:
+            return plan_jog(settings, start=t).to_high(t)
+        return plan_jog(settings, start=t)
