@@ -34,10 +34,16 @@ class LineBusy(RuntimeError):
 class HostLink:
     """The host end of the line: ``write`` puts bytes on it, ``close`` lets another host on."""
 
-    def __init__(self, line: Line, sink: Callable[[bytes], None]) -> None:
+    def __init__(
+        self,
+        line: Line,
+        sink: Callable[[bytes], None],
+        on_close: Callable[[], None] | None = None,
+    ) -> None:
         self._line = line
         self.sink = sink
         self.closed = False
+        self._on_close = on_close  # told when the link ends, whoever ends it
 
     def write(self, data: bytes) -> None:
         """Send bytes to the controllers (they arrive at the line's baud rate)."""
@@ -49,6 +55,8 @@ class HostLink:
         if not self.closed:
             self.closed = True
             self._line.detach(self)
+            if self._on_close is not None:
+                self._on_close()
 
 
 class Line(ABC):
@@ -90,11 +98,17 @@ class Line(ABC):
 
     # ------------------------------------------------------------------ the host end
 
-    def attach(self, sink: Callable[[bytes], None]) -> HostLink:
-        """Connect the host: ``sink`` gets every byte that reaches it. One host at a time."""
+    def attach(
+        self, sink: Callable[[bytes], None], on_close: Callable[[], None] | None = None
+    ) -> HostLink:
+        """Connect the host: ``sink`` gets every byte that reaches it. One host at a time.
+
+        ``on_close`` is called when the link ends, also when the loop itself closes (the host
+        sees its line go away).
+        """
         if self._host is not None:
             raise LineBusy("the line already has a host")
-        self._host = HostLink(self, sink)
+        self._host = HostLink(self, sink, on_close)
         self.log.add(self.now(), RecordKind.HOST, note="connected")
         return self._host
 

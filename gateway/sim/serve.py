@@ -38,7 +38,8 @@ class SimPort:
 
     def __init__(self, loop: SimLoop) -> None:
         self.reader = asyncio.StreamReader()
-        self._link = loop.attach(self.reader.feed_data)
+        # EOF for readers when the port or the whole loop closes: the line went away.
+        self._link = loop.attach(self.reader.feed_data, on_close=self.reader.feed_eof)
 
     def write(self, data: bytes) -> None:
         """Send bytes to the loop."""
@@ -51,7 +52,6 @@ class SimPort:
     def close(self) -> None:
         """Disconnect from the loop; readers see EOF."""
         self._link.close()
-        self.reader.feed_eof()
 
 
 class PtyLine:

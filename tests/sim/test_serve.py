@@ -20,7 +20,7 @@ import serial  # type: ignore[import-untyped]
 
 from gateway.sim.clock import RecordKind
 from gateway.sim.loop import SimLoop
-from gateway.sim.serve import PtyLine, serve_tcp
+from gateway.sim.serve import PtyLine, SimPort, serve_tcp
 
 from .conftest import make_loop
 
@@ -230,3 +230,13 @@ def test_bad_options_are_refused(capsys: pytest.CaptureFixture[str]) -> None:
             main(argv)
         assert exc.value.code == 2
     assert "body numbers" in capsys.readouterr().err
+
+
+async def test_the_in_process_port_reads_eof_when_the_loop_closes() -> None:
+    # A transport reading the port must learn that the line went away (issue 4: loop down).
+    loop = make_loop()
+    port = SimPort(loop)
+    port.write(b"$1\r")
+    assert await asyncio.wait_for(port.reader.readexactly(5), 5) == b">$10\r"
+    loop.close()
+    assert await asyncio.wait_for(port.reader.read(), 5) == b""

@@ -1,0 +1,126 @@
+"""How much of the serial line the loop scheduler uses, and how fast a stop gets through.
+
+The simulated loop runs at the line's real character timing (``--time-scale 1``, the default,
+9600 bps, 1 ms controller turnaround); the scheduler's queue is kept full of reads from several
+callers over three controllers. The simulator's own line log is the ruler: for every frame the
+controllers heard, the wire time of the command, the turnaround and the wire time of the reply
+(10 bits a character) count as busy; the figure is busy time over elapsed time in the measured
+window (target >= 0.97, issue 4). Meanwhile a stop is submitted now and then; its latency is the
+time from ``submit`` to the moment the controller has heard the whole ``S`` frame, in device
+milliseconds (p50 and p99).
+
+    .venv/bin/python bench/line_efficiency.py                 # real time, 10 s
+    .venv/bin/python bench/line_efficiency.py --time-scale 20 --seconds 1   # what make test runs
+
+It prints one JSON object. Times are device (simulated) seconds, so figures taken at another
+time scale compare, although host latency weighs more there.
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import json
+import statistics
+
+from gateway.bus.config import LoopConfig
+from gateway.bus.requests import Priority
+from gateway.bus.scheduler import LoopScheduler
+from gateway.protocol.registry import parse
+from gateway.sim.cli import build_loop
+from gateway.sim.clock import RecordKind, SimClock
+from gateway.sim.serve import SimPort
+from gateway.transport.pipe import PipeTransport
+
+BODIES = ["1", "2", "3"]
+READS = ["6", "OH", "9{b}", "CL", "2D", "OX"]
+BITS_PER_CHAR = 10
+
+
+def _percentile(values: list[float], q: float) -> float:
+    ordered = sorted(values)
+    return ordered[min(len(ordered) - 1, round(q * (len(ordered) - 1)))]
+
+
+async def _reader(scheduler: LoopScheduler, body: str, n: int, stop: asyncio.Event) -> None:
+    commands = [parse(text.replace("{b}", "4")) for text in READS]
+    i = n
+    while not stop.is_set():
+        await scheduler.submit(body, commands[i % len(commands)], priority=Priority.POLL)
+        i += 1
+
+
+async def measure(seconds: float, scale: float, baud: int, callers: int) -> dict[str, object]:
+    """Run the load for ``seconds`` of device time; the figures."""
+    clock = SimClock(scale)
+    sim = build_loop(BODIES, clock=clock, baud=baud)
+    transport = PipeTransport(lambda: SimPort(sim), url="pipe://sim", baud=baud)
+    scheduler = LoopScheduler(transport, LoopConfig(name="bench", time_scale=scale))
+    await scheduler.start()
+    stop = asyncio.Event()
+    workers = [
+        asyncio.create_task(_reader(scheduler, BODIES[i % len(BODIES)], i, stop))
+        for i in range(callers)
+    ]
+    await asyncio.sleep(0.2 / scale)  # let the queue fill before the window opens
+    start = clock.now()
+    mark = sim.log.next_seq
+    latencies: list[float] = []
+    while clock.now() - start < seconds:
+        submitted = clock.now()
+        seq = sim.log.next_seq
+        await scheduler.stop("1")
+        heard = next(
+            r
+            for r in sim.log.since(seq)
+            if r.kind is RecordKind.HEARD and r.data.rstrip(b"\r").endswith(b"1S")
+        )
+        latencies.append(heard.time - submitted)
+        await asyncio.sleep(0.1 / scale)  # a stop every 100 ms of device time
+    end = clock.now()
+    stop.set()
+    await asyncio.gather(*workers, return_exceptions=True)
+    records = [r for r in sim.log.since(mark) if start <= r.time <= end]
+    await scheduler.close()
+    sim.close()
+    char = BITS_PER_CHAR / baud
+    heard = [r for r in records if r.kind is RecordKind.HEARD and r.ref > 0]
+    replies = [r for r in records if r.kind is RecordKind.REPLY]
+    busy = (
+        sum(len(r.data) for r in heard) * char
+        + sum(len(r.data) for r in replies) * char
+        + len(replies) * sim.turnaround
+    )
+    return {
+        "baud": baud,
+        "time_scale": scale,
+        "device_seconds": round(end - start, 3),
+        "frames": len(heard),
+        "replies": len(replies),
+        "line_efficiency": round(busy / (end - start), 4),
+        "target": 0.97,
+        "stops": len(latencies),
+        "stop_latency_ms_p50": round(statistics.median(latencies) * 1000, 2),
+        "stop_latency_ms_p99": round(_percentile(latencies, 0.99) * 1000, 2),
+        "scheduler": {
+            "retries": scheduler.counters.retries,
+            "timeouts": scheduler.counters.timeouts,
+            "coalesced": scheduler.counters.coalesced,
+        },
+    }
+
+
+def main() -> None:
+    """Parse the options, run, print JSON."""
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--seconds", type=float, default=10.0, help="device seconds measured")
+    parser.add_argument("--time-scale", type=float, default=1.0)
+    parser.add_argument("--baud", type=int, default=9600, choices=[9600, 1200, 300])
+    parser.add_argument("--callers", type=int, default=12, help="concurrent readers")
+    args = parser.parse_args()
+    figures = asyncio.run(measure(args.seconds, args.time_scale, args.baud, args.callers))
+    print(json.dumps(figures, indent=2))
+
+
+if __name__ == "__main__":
+    main()

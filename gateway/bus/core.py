@@ -1,0 +1,265 @@
+"""The shared state of one loop's scheduler and its one-frame operation, ``send``.
+
+``LoopCore.send`` encodes one command model for its controller's framing (a checksum with
+SUM1, §10 SUM), lets the ``Link`` exchange it, turns the reply into a ``ReplyKind`` and a typed
+value, publishes it (every decoded reply: DESIGN invariant 4), and keeps the books that follow
+from it: motor selection (§10 F), framing (§10 EE/EL/ER/SUM, DL), doubt after a lost reply, and
+link health (consecutive time-outs with no byte received).
+"""
+
+from __future__ import annotations
+
+import asyncio
+from collections.abc import Awaitable, Callable
+from dataclasses import dataclass
+
+from gateway.bus.config import LoopConfig
+from gateway.bus.counters import Counters
+from gateway.bus.events import EventBus, FramingChanged, ReplyObserved, SelectionChanged
+from gateway.bus.framing_track import FramingTracker, hint_from_reply
+from gateway.bus.link import Link, LinkLost
+from gateway.bus.requests import ReplyKind
+from gateway.bus.selection import SelectionCache, selection_from_reply
+from gateway.bus.timing import Timing, reply_chars
+from gateway.errors import ReplyFormatError
+from gateway.protocol.framing import Framing, encode_command, framing_switch
+from gateway.protocol.models import Command
+from gateway.protocol.replies import (
+    ReplyValue,
+    decode_condition_bit,
+    decode_motor_pair,
+    decode_reply,
+)
+from gateway.protocol.reply_parser import (
+    Accepted,
+    ChecksumMismatch,
+    CommandRejected,
+    DataReply,
+    NotAccepted,
+    ReplyEvent,
+)
+from gateway.protocol.spec import ReplyFormat, Scope
+
+__all__ = ["DOUBT", "FRAMING_KEYS", "LoopCore", "Sent", "decode_for"]
+
+#: Kinds after which nobody knows what the controller did or how it is set up.
+DOUBT = frozenset({ReplyKind.TIMEOUT, ReplyKind.GARBLED, ReplyKind.CHECKSUM})
+#: The forms that switch the framing (§10 EE, EL, ER, SUM).
+FRAMING_KEYS = frozenset({"EE1", "EE0", "EL1", "EL0", "ER1", "ER0", "SUM1", "SUM0"})
+
+
+def decode_for(command: Command, data: str) -> ReplyValue:
+    """The typed value of ``command``'s reply data (``ReplyFormatError`` if it does not fit)."""
+    fmt = command.reply_format
+    if command.key == "9{bit}":
+        return decode_condition_bit(data, int(command.params()["bit"]))
+    if fmt is ReplyFormat.MOTOR_PAIR and command.mnemonic in ("QJ", "QSE"):
+        return decode_motor_pair(data, max_setting=1)  # §10 QJ, QSE: 0 or 1 per motor
+    return decode_reply(fmt, data)
+
+
+@dataclass(frozen=True)
+class Sent:
+    """One frame's fate."""
+
+    kind: ReplyKind
+    value: ReplyValue | None = None
+    late: bool = False
+    note: str = ""
+
+
+class LoopCore:
+    """Everything one loop's transactions share."""
+
+    def __init__(
+        self,
+        name: str,
+        config: LoopConfig,
+        timing: Timing,
+        link: Link,
+        counters: Counters,
+        bus: EventBus,
+        clock: Callable[[], float],
+    ) -> None:
+        self.name = name
+        self.config = config
+        self.timing = timing
+        self.link = link
+        self.counters = counters
+        self.bus = bus
+        self.clock = clock
+        self.selection = SelectionCache()
+        self.framing = FramingTracker(config.initial_framing)
+        #: ``$B#*`` seen per controller (a counter, so a waiter cannot miss an early one)
+        self.eeprom_done: dict[str, int] = {}
+        self.eeprom_event = asyncio.Event()
+        #: controllers that are deaf until this host time (EE/// erases in silence, §10 EE///)
+        self.deaf_until: dict[str, float] = {}
+        #: set by the scheduler when a stop waits; runs the queued stops (EEPROM holds)
+        self.stop_waiting = asyncio.Event()
+        self.serve_stops: Callable[[], Awaitable[None]] | None = None
+        #: controllers whose framing read-back failed since the link came up (not retried)
+        self.detect_failed: set[str] = set()
+
+    # ------------------------------------------------------------------ bookkeeping
+
+    def motor_of(self, body: str, command: Command, motor: int | None) -> int | None:
+        """The motor ``command`` acts on or reads, as far as the scheduler knows."""
+        if command.motor is not None:
+            return command.motor
+        if command.spec.scope is Scope.PER_MOTOR and motor is not None:
+            return motor
+        return self.selection.get(body)
+
+    def set_selection(self, body: str, motor: int | None) -> None:
+        """Record the selection (None: forget it) and publish a change."""
+        forgot = motor is None and self.selection.forget(body)
+        if forgot or (motor is not None and self.selection.set(body, motor)):
+            self.bus.publish(
+                SelectionChanged(loop=self.name, time=self.clock(), body=body, motor=motor)
+            )
+
+    def set_framing(self, body: str, framing: Framing, *, detected: bool) -> None:
+        """Record a confirmed framing and publish it when it changed."""
+        if self.framing.set(body, framing) or detected:
+            self.bus.publish(
+                FramingChanged(
+                    loop=self.name, time=self.clock(), body=body, framing=framing, detected=detected
+                )
+            )
+
+    def doubt(self, body: str) -> None:
+        """After a lost, garbled or '?' reply: the selection is not trusted any more."""
+        self.set_selection(body, None)
+
+    def publish_reply(
+        self,
+        body: str,
+        command: Command,
+        value: ReplyValue | None,
+        motor: int | None,
+        *,
+        rejected: bool = False,
+        late: bool = False,
+    ) -> None:
+        """Publish a decoded reply (callers' commands and the scheduler's own alike)."""
+        self.bus.publish(
+            ReplyObserved(
+                loop=self.name,
+                time=self.clock(),
+                body=body,
+                command=command,
+                value=value,
+                motor=self.motor_of(body, command, motor),
+                rejected=rejected,
+                late=late,
+            )
+        )
+
+    # ------------------------------------------------------------------ one frame
+
+    async def send(self, body: str, command: Command, motor: int | None = None) -> Sent:
+        """Send ``command`` once and classify its reply; ``LinkLost`` if the line goes."""
+        framing = self.framing.get(body)
+        series = self.config.series_of(body)
+        text = command.wire()
+        switch = framing_switch(framing, text) if command.key in FRAMING_KEYS else None
+        reply_framing = switch.reply if switch is not None else framing
+        frame = encode_command(body, text, series=series, framing=framing)
+        exchange = await self.link.exchange(
+            body,
+            frame,
+            has_data=command.reply_format.has_data,
+            framing=reply_framing,
+            series=series,
+            reply_len=reply_chars(command, reply_framing, len(frame)),
+        )
+        self.counters.exchanges += 1
+        sent = self._classify(body, command, exchange.event, reply_framing, motor, exchange.late)
+        self._after(body, command, sent, framing, motor)
+        self._check_health(body)
+        return sent
+
+    def _classify(
+        self,
+        body: str,
+        command: Command,
+        event: ReplyEvent | None,
+        framing: Framing,
+        motor: int | None,
+        late: bool,
+    ) -> Sent:
+        if event is not None and (hint := hint_from_reply(event, command, framing)):
+            self.framing.suspect(body, hint)
+        if event is None:
+            return Sent(ReplyKind.TIMEOUT, note="no reply in time")
+        if isinstance(event, NotAccepted):
+            self.counters.naks += 1
+            return Sent(ReplyKind.NOT_ACCEPTED, late=late, note="'?': not taken")
+        if isinstance(event, CommandRejected):
+            self.publish_reply(body, command, None, motor, rejected=True, late=late)
+            return Sent(ReplyKind.REJECTED, late=late, note="'>@': command error (ER1)")
+        if isinstance(event, Accepted):
+            self.publish_reply(body, command, None, motor, late=late)
+            note = "a query answered with a bare '>'" if command.reply_format.has_data else ""
+            return Sent(ReplyKind.ACCEPTED, late=late, note=note)
+        if isinstance(event, DataReply):
+            try:
+                value = decode_for(command, event.data)
+            except (ReplyFormatError, ValueError) as exc:
+                self.counters.garbled += 1
+                return Sent(ReplyKind.GARBLED, late=late, note=f"reply does not decode: {exc}")
+            shown = selection_from_reply(command, value)
+            if shown is not None:  # '9', '97', 'F' show the selection: published with it
+                self.set_selection(body, shown)
+            self.publish_reply(body, command, value, motor, late=late)
+            return Sent(ReplyKind.DATA, value, late=late)
+        if isinstance(event, ChecksumMismatch):
+            self.counters.checksum_errors += 1
+            return Sent(ReplyKind.CHECKSUM, late=late, note=f"checksum mismatch: {event.raw!r}")
+        self.counters.garbled += 1
+        return Sent(ReplyKind.GARBLED, late=late, note=f"garbled: {event.raw!r}")
+
+    def _after(
+        self, body: str, command: Command, sent: Sent, framing: Framing, motor: int | None
+    ) -> None:
+        """Selection and framing books after one frame."""
+        if sent.kind in DOUBT or sent.kind is ReplyKind.NOT_ACCEPTED:
+            self.doubt(body)
+            if command.key in FRAMING_KEYS and sent.kind in DOUBT:
+                self.framing.suspect(body, f"the reply to {command.wire()} was lost")
+            return
+        if sent.kind is not ReplyKind.ACCEPTED or command.reply_format.has_data:
+            return
+        if command.key in FRAMING_KEYS:
+            switch = framing_switch(framing, command.wire())
+            if not switch.refused:
+                self.set_framing(body, switch.after, detected=False)
+        elif command.key == "DL":
+            # §10 DL loads the framing stored by DW: not known any more.
+            self.framing.forget(body)
+            self.framing.suspect(body, "DL loaded the framing from EEPROM")
+        elif command.form.selects_motor and command.key != "F{mt}":
+            changed = self.selection.after_accepted(body, command, framing)
+            if changed is not False:
+                self.set_selection(body, changed if isinstance(changed, int) else None)
+
+    def _check_health(self, body: str) -> None:
+        """Too many time-outs in a row with no byte at all: the line is gone (half-open)."""
+        if self.deaf_until.get(body, 0.0) > self.clock():
+            self.link.silent_timeouts = 0  # a controller erasing its EEPROM is silent on purpose
+            return
+        limit = self.config.timeouts_to_down
+        if self.link.silent_timeouts >= limit:
+            cause = f"{limit} time-outs in a row with no byte received"
+            self.link.lose(cause)
+            raise LinkLost(cause)
+
+    # ------------------------------------------------------------------ EEPROM
+
+    def note_eeprom_done(self, body: str) -> None:
+        """A ``$B#*`` from ``body`` (§10 AW, DW, IW, EE///)."""
+        self.eeprom_done[body] = self.eeprom_done.get(body, 0) + 1
+        self.deaf_until.pop(body, None)
+        self.eeprom_event.set()
+        self.eeprom_event = asyncio.Event()

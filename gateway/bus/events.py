@@ -1,0 +1,171 @@
+"""What the loop scheduler tells its subscribers, and the in-process publish/subscribe.
+
+Every decoded reply, including the scheduler's own read-backs (``""`` and ``9`` clear the
+device's error bits: the state cache latches the errors from these events, DESIGN.md
+invariant 4), every unsolicited message, the link going down and up, and every finished
+transaction is published. Subscribers are plain callbacks or asyncio queues; no threads.
+A callback runs inside the scheduler's task: it must not block, and what it raises is logged
+and otherwise ignored, so one bad subscriber cannot stop the loop.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from gateway.bus.counters import CountersSnapshot
+from gateway.bus.requests import Outcome, Priority
+from gateway.protocol.framing import Framing
+from gateway.protocol.models import Command
+from gateway.protocol.replies import ReplyValue
+from gateway.protocol.reply_parser import UnsolicitedKind
+
+__all__ = [
+    "BusEvent",
+    "EventBus",
+    "FramingChanged",
+    "LinkDown",
+    "LinkUp",
+    "ReplyObserved",
+    "SelectionChanged",
+    "TransactionDone",
+    "UnsolicitedMessage",
+]
+
+log = logging.getLogger("gateway.bus")
+
+
+@dataclass(frozen=True, kw_only=True)
+class BusEvent:
+    """Base of every event: the loop's name and the scheduler clock (monotonic seconds)."""
+
+    loop: str = ""
+    time: float = 0.0
+
+
+@dataclass(frozen=True, kw_only=True)
+class ReplyObserved(BusEvent):
+    """A reply the scheduler decoded: to a caller's command or to its own (F, read-backs).
+
+    ``value`` is the typed value of a data reply, None for '>' / '>@' (``rejected``). ``motor``
+    is the motor the command acted on or read, when the scheduler knows it (the motor suffix,
+    or the selection it set); for controller-wide replies (``""``, ``9``) it is the motor that
+    was selected then, None if the selection was not known.
+    """
+
+    body: str
+    command: Command
+    value: ReplyValue | None
+    motor: int | None = None
+    rejected: bool = False
+    late: bool = False
+
+
+@dataclass(frozen=True, kw_only=True)
+class UnsolicitedMessage(BusEvent):
+    """``$B#*`` (EEPROM write done), ``$B#T`` (timer up) or user-program output (§10, §11-3).
+
+    ``body`` is None for output that does not say which controller sent it ('>text', '@').
+    """
+
+    body: str | None
+    kind: UnsolicitedKind
+    data: str
+    raw: bytes = b""
+
+
+@dataclass(frozen=True, kw_only=True)
+class LinkUp(BusEvent):
+    """The line is open again: re-read the controllers from the devices, never from cache."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class LinkDown(BusEvent):
+    """The line went away; requests fail with ``LoopDown`` until ``LinkUp``."""
+
+    cause: str
+    retry_after: float | None = None
+
+
+@dataclass(frozen=True, kw_only=True)
+class TransactionDone(BusEvent):
+    """A transaction ended (any outcome); ``counters`` are the loop's totals after it."""
+
+    body: str
+    commands: tuple[str, ...]  # the callers' commands as sent (wire text)
+    motor: int | None = None  # the motor the caller named for the per-motor commands
+    outcome: Outcome
+    priority: Priority
+    duration: float
+    exchanges: int
+    counters: CountersSnapshot
+
+
+@dataclass(frozen=True, kw_only=True)
+class FramingChanged(BusEvent):
+    """The framing the scheduler uses for a controller changed (set by a command or detected)."""
+
+    body: str
+    framing: Framing
+    detected: bool = False  # True: read back from the device after a reply looked wrong
+
+
+@dataclass(frozen=True, kw_only=True)
+class SelectionChanged(BusEvent):
+    """The motor the scheduler believes selected (§10 F); None: not known, F is sent again."""
+
+    body: str
+    motor: int | None
+
+
+Callback = Callable[[BusEvent], None]
+
+
+class EventBus:
+    """Publish events to callbacks and asyncio queues, in the order they happen."""
+
+    def __init__(self) -> None:
+        self._callbacks: list[Callback] = []
+        self._queues: list[asyncio.Queue[BusEvent]] = []
+        #: events dropped because a queue subscriber fell behind (oldest dropped first)
+        self.dropped = 0
+
+    def subscribe(self, callback: Callback) -> Callable[[], None]:
+        """Call ``callback(event)`` for every event from now on; returns the unsubscriber."""
+        self._callbacks.append(callback)
+
+        def unsubscribe() -> None:
+            if callback in self._callbacks:
+                self._callbacks.remove(callback)
+
+        return unsubscribe
+
+    def queue(self, maxsize: int = 10_000) -> asyncio.Queue[BusEvent]:
+        """A queue that receives every event from now on (``unqueue`` to stop).
+
+        When it is full the oldest event is dropped (and counted in ``dropped``), so a slow
+        reader loses history, never the newest state.
+        """
+        q: asyncio.Queue[BusEvent] = asyncio.Queue(maxsize)
+        self._queues.append(q)
+        return q
+
+    def unqueue(self, q: asyncio.Queue[BusEvent]) -> None:
+        """Stop feeding ``q``."""
+        if q in self._queues:
+            self._queues.remove(q)
+
+    def publish(self, event: BusEvent) -> None:
+        """Deliver ``event`` to every subscriber now."""
+        for callback in list(self._callbacks):
+            try:
+                callback(event)
+            except Exception:  # one bad subscriber must not stop the loop
+                log.exception("event subscriber %r failed on %r", callback, event)
+        for q in self._queues:
+            if q.full():
+                q.get_nowait()
+                self.dropped += 1
+            q.put_nowait(event)

@@ -1,0 +1,300 @@
+"""The running side of a loop's scheduler: connect, serve the queue, go down, reconnect.
+
+One task runs the queue: the highest priority first, FIFO within a priority, one transaction
+at a time, a stop as soon as the transaction in flight ends (DESIGN invariant 8). When the
+transport raises ``TransportClosed``, or ``timeouts_to_down`` time-outs in a row bring no byte
+at all, the loop goes DOWN: queued requests fail at once with ``LoopDown`` (with a retry-after
+hint) and the port is reopened with backoff. When it is back, the motor-selection and framing
+caches are dropped and ``LinkUp`` is published: the state layer re-reads the controllers from
+the devices, never from cache. ``scheduler.LoopScheduler`` adds the callers' side.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+import time
+from collections.abc import Callable
+from enum import StrEnum
+
+from gateway.bus.config import LoopConfig
+from gateway.bus.core import LoopCore
+from gateway.bus.counters import Counters, CountersSnapshot
+from gateway.bus.events import EventBus, LinkDown, LinkUp, TransactionDone, UnsolicitedMessage
+from gateway.bus.framing_track import hint_from_stray
+from gateway.bus.link import Link, LinkLost
+from gateway.bus.queue import Request, RequestQueue
+from gateway.bus.requests import LoopDown, Priority, TransactionResult
+from gateway.bus.timing import Timing
+from gateway.bus.trace import LineTrace
+from gateway.bus.transaction import TransactionRunner
+from gateway.protocol.framing import BODY_NUMBERS
+from gateway.protocol.reply_parser import ReplyEvent, Unsolicited, UnsolicitedKind
+from gateway.transport.base import Transport, TransportClosed
+
+__all__ = ["LinkState", "LoopLifecycle"]
+
+log = logging.getLogger("gateway.bus")
+
+
+class LinkState(StrEnum):
+    """Where the loop's line is."""
+
+    CONNECTING = "connecting"
+    UP = "up"
+    DOWN = "down"
+    CLOSED = "closed"
+
+
+class LoopLifecycle:
+    """The queue, the link and the task that serves one from the other."""
+
+    def __init__(
+        self,
+        transport: Transport,
+        config: LoopConfig | None = None,
+        *,
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
+        self.config = config = config or LoopConfig()
+        self.name = config.name
+        self.transport = transport
+        self.clock = clock
+        self.counters = Counters()
+        self.events = EventBus()
+        self.trace = LineTrace(config.trace_size)
+        self.timing = Timing(
+            baud=config.baud or transport.baud,
+            scale=config.time_scale,
+            turnaround=config.turnaround,
+            host_latency=config.host_latency,
+            quiet_chars=config.quiet_chars,
+        )
+        self._link = Link(
+            transport,
+            self.timing,
+            self.counters,
+            self.trace,
+            on_unsolicited=self._unsolicited,
+            on_stray=self._stray,
+            on_lost=self._wake_up,
+            clock=clock,
+        )
+        self._core = LoopCore(
+            self.name, config, self.timing, self._link, self.counters, self.events, clock
+        )
+        self._core.serve_stops = self._serve_stops
+        self._wake = asyncio.Event()
+        self._queue = RequestQueue(self.name, clock, self._queued)
+        self.state = LinkState.CONNECTING
+        self.cause = "not connected yet"
+        self._backoff = config.reconnect_initial_real
+        self._retry_at: float | None = None
+        self._task: asyncio.Task[None] | None = None
+        self._first_attempt = asyncio.Event()
+
+    def snapshot(self) -> CountersSnapshot:
+        """The loop's counters now."""
+        self.counters.coalesced = self._queue.coalesced
+        self.counters.expired = self._queue.expired
+        return self.counters.snapshot()
+
+    def _queued(self) -> None:
+        if self._queue.head_priority() is Priority.STOP:
+            self._core.stop_waiting.set()
+        self._wake.set()
+
+    def _wake_up(self) -> None:
+        self._wake.set()
+
+    def _down_error(self, *, in_flight: bool = False) -> LoopDown:
+        retry = None
+        if self._retry_at is not None and self.state is not LinkState.CLOSED:
+            retry = max(0.0, self._retry_at - self.clock())
+        return LoopDown(self.name, self.cause, retry_after=retry, in_flight=in_flight)
+
+    def _fail_queued(self) -> None:
+        self._queue.fail_all(self._down_error)
+        self._core.stop_waiting.clear()
+
+    def _forget_all(self) -> None:
+        for body in BODY_NUMBERS:
+            self._core.set_selection(body, None)
+
+    # ------------------------------------------------------------------ the run loop
+
+    async def _run(self) -> None:
+        try:
+            while self.state is not LinkState.CLOSED:
+                if await self._connect():
+                    self._first_attempt.set()
+                    try:
+                        await self._serve()
+                    except LinkLost as exc:
+                        await self._go_down(exc.cause)
+                self._first_attempt.set()
+                # Backoff after a failed open and after a loss alike; it is reset by a
+                # transaction that heard the line, so a dead line is not reopened in a spin.
+                await asyncio.sleep(self._backoff)
+                self._backoff = min(self._backoff * 2, self.config.reconnect_max_real)
+        finally:
+            self._first_attempt.set()
+
+    async def _connect(self) -> bool:
+        try:
+            await self.transport.open()
+        except (TransportClosed, OSError) as exc:
+            if self.state is not LinkState.DOWN:
+                await self._go_down(f"cannot open {self.transport.url}: {exc}")
+            else:
+                self.cause = f"cannot open {self.transport.url}: {exc}"
+                self._retry_at = self.clock() + self._backoff
+            return False
+        self._link.start()
+        self._core.selection.forget()
+        self._core.framing.forget()
+        self._core.detect_failed.clear()
+        self._core.deaf_until.clear()
+        self.state = LinkState.UP
+        self.cause = ""
+        self._retry_at = None
+        self.events.publish(LinkUp(loop=self.name, time=self.clock()))
+        return True
+
+    async def _go_down(self, cause: str) -> None:
+        self.state = LinkState.DOWN
+        self.cause = cause
+        self.counters.link_downs += 1
+        self._retry_at = self.clock() + self._backoff
+        log.warning("loop %s down: %s", self.name, cause)
+        self._fail_queued()
+        await self._link.stop()
+        with contextlib.suppress(Exception):
+            await self.transport.close()
+        self.events.publish(
+            LinkDown(loop=self.name, time=self.clock(), cause=cause, retry_after=self._backoff)
+        )
+
+    async def _serve(self) -> None:
+        """Run transactions until the link is lost."""
+        while True:
+            if self._link.lost_cause is not None:
+                raise LinkLost(self._link.lost_cause)
+            request = self._queue.pop()
+            if request is None:
+                self._core.stop_waiting.clear()
+                self._wake.clear()
+                await self._wake.wait()
+                continue
+            await self._execute(request)
+            if self._link.heard_any:
+                self._backoff = self.config.reconnect_initial_real
+
+    async def _serve_stops(self) -> None:
+        """Run the queued stops now (from inside a transaction that holds the line)."""
+        while (request := self._queue.pop(only=Priority.STOP)) is not None:
+            await self._execute(request)
+        self._core.stop_waiting.clear()
+
+    async def _execute(self, request: Request) -> None:
+        if self._queue.head_priority() is not Priority.STOP:
+            self._core.stop_waiting.clear()
+        started = self.clock()
+        runner = TransactionRunner(
+            self._core, request.body, request.commands, request.motor, request.program
+        )
+        try:
+            results, exchanges = await runner.run()
+        except LinkLost as exc:
+            self.cause = exc.cause
+            self._fail(request, self._down_error(in_flight=True))
+            raise
+        except asyncio.CancelledError:  # closed during the transaction: nobody waits forever
+            self._fail(request, self._down_error(in_flight=True))
+            raise
+        except Exception as exc:  # a defect: tell the callers, keep the loop alive
+            log.exception("loop %s: transaction failed", self.name)
+            self._fail(request, exc)
+            return
+        result = TransactionResult(
+            self.name, request.body, tuple(results), started, self.clock(), exchanges
+        )
+        self.counters.transactions += 1
+        self.events.publish(
+            TransactionDone(
+                loop=self.name,
+                time=result.ended,
+                body=request.body,
+                commands=tuple(c.wire() for c in request.commands),
+                motor=request.motor,
+                outcome=result.outcome,
+                priority=request.priority,
+                duration=result.ended - started,
+                exchanges=exchanges,
+                counters=self.snapshot(),
+            )
+        )
+        for waiter in request.waiters:
+            if not waiter.future.done():
+                waiter.future.set_result(result)
+
+    @staticmethod
+    def _fail(request: Request, error: Exception) -> None:
+        for waiter in request.waiters:
+            if not waiter.future.done():
+                waiter.future.set_exception(error)
+
+    # ------------------------------------------------------------------ messages
+
+    def _unsolicited(self, event: Unsolicited) -> None:
+        if event.kind is UnsolicitedKind.PROGRAM_OUTPUT and self._framing_artefact(event):
+            return
+        body = event.body
+        self.counters.unsolicited += 1
+        if event.kind is UnsolicitedKind.EEPROM_DONE and body is not None:
+            self._core.note_eeprom_done(body)
+        self.events.publish(
+            UnsolicitedMessage(
+                loop=self.name,
+                time=self.clock(),
+                body=body,
+                kind=event.kind,
+                data=event.data,
+                raw=event.raw,
+            )
+        )
+
+    def _framing_artefact(self, event: Unsolicited) -> bool:
+        """Whether "program output" is a reply in a framing the gateway did not expect.
+
+        Such bytes are a framing hint, not a program's output, and are not published.
+        """
+        tracker, body, link = self._core.framing, event.body, self._link
+        if link.is_echo(event.raw):
+            # Our own frame came back: the controller has EE1 on (§10 EE).
+            if body is not None:
+                tracker.suspect(body, "the frame came back (EE1?)")
+            return True
+        if body is not None and body == link.pending_body and tracker.suspicion(body):
+            self.counters.garbled += 1  # the data part that followed that echo
+            return True
+        last = link.last_body
+        # '>@' of ER1 read as '>' then '@' while ER0 was assumed (§10 ER); a running
+        # program's '@' comes from a controller whose framing was read back.
+        if (
+            event.raw == b"@"
+            and last is not None
+            and not tracker.confirmed(last)
+            and not tracker.get(last).error_mark
+        ):
+            tracker.suspect(last, "'@' after '>' (ER1?)")
+            return True
+        return False
+
+    def _stray(self, event: ReplyEvent, body: str | None) -> None:
+        if body is None:
+            return
+        why = hint_from_stray(event, self._core.framing.get(body))
+        if why is not None:
+            self._core.framing.suspect(body, why)

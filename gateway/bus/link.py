@@ -1,0 +1,213 @@
+"""Exactly one exchange at a time on one loop's port (DESIGN invariant 1).
+
+``Link.exchange`` is the only way a frame reaches the port. For each frame it: waits for a
+message still arriving to end, takes the bytes nobody read yet off the port (stale input:
+counted, traced, and still searched for ``$B#*``/``$B#T``), registers the expected reply with
+the parser *before* writing, writes, and waits the reply time-out that ``timing`` computes
+from the baud rate and the frame lengths.
+
+After a time-out the expectation is kept while the line is busy and until it has been quiet
+for the longest possible reply time of the command: a reply that completes then is the
+command's own reply, counted as late; anything else that arrives then is counted as late and
+dropped. Only then does the next frame go out, after the stale input is discarded, so a late
+reply is never taken for the next command's reply.
+
+The reading side (reader task, parser, routing) is ``receiver.Receiver``.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from gateway.bus.receiver import ALWAYS_MEANT, LinkLost, Pending, Receiver
+from gateway.bus.trace import Direction
+from gateway.protocol.framing import Framing, Series
+from gateway.protocol.reply_parser import ReplyEvent, Unsolicited
+from gateway.transport.base import TransportClosed
+
+__all__ = ["Exchange", "Link", "LinkLost"]
+
+
+@dataclass(frozen=True)
+class Exchange:
+    """What one frame got: its reply event (None: time-out), and how."""
+
+    event: ReplyEvent | None
+    late: bool  # the reply completed after its time-out
+    heard: bool  # any byte came in between the write and the end
+    started: float
+    ended: float
+
+
+class Link(Receiver):
+    """The port of one loop: exactly one exchange at a time (see the module's text)."""
+
+    # ------------------------------------------------------------------ one exchange
+
+    async def exchange(
+        self,
+        body: str,
+        frame: bytes,
+        *,
+        has_data: bool,
+        framing: Framing,
+        series: Series,
+        reply_len: int,
+        expect_sent: bytes | None = None,
+        sent_before: int = 0,
+    ) -> Exchange:
+        """Write ``frame`` to ``body`` and wait for its reply (see the module's text).
+
+        ``framing`` is the framing of the reply (``framing_switch(...).reply`` for EL);
+        ``expect_sent`` is the echo the parser compares (default ``frame``; program text has
+        none); ``sent_before``: bytes written just before that are still on the wire (program
+        text pieces). ``LinkLost`` when the port goes away meanwhile.
+        """
+        if self.lost_cause is not None:
+            raise LinkLost(self.lost_cause)
+        await self._settle()
+        self._discard_stale(body)
+        self.parser.configure(framing=framing, series=series)
+        self.parser.expect(
+            body, frame if expect_sent is None else expect_sent, has_data, framing=framing
+        )
+        loop = asyncio.get_running_loop()
+        pending = Pending(body, loop.create_future())
+        self._pending = pending
+        started = self._clock()
+        try:
+            self._write(body, frame, started)
+            limit = self.timing.real(self.timing.reply_timeout(sent_before + len(frame), reply_len))
+            await asyncio.wait({pending.future}, timeout=limit)
+            late = False
+            if not pending.future.done():
+                late = await self._late_window(pending, reply_len, limit)
+            if pending.future.done():
+                event: ReplyEvent | None = pending.future.result()  # raises LinkLost
+            else:
+                event = None
+                self.parser.cancel()
+                self._counters.timeouts += 1
+                if not pending.heard:
+                    self.silent_timeouts += 1
+                self._trace.add(self._clock(), Direction.NOTE, body, b"", "time-out")
+            if late:
+                self._counters.late_replies += 1
+                self._trace.add(self._clock(), Direction.NOTE, body, b"", "late reply")
+            return Exchange(event, late, pending.heard, started, self._clock())
+        finally:
+            self._pending = None
+            if not pending.future.done():
+                pending.future.cancel()
+
+    async def _late_window(self, pending: Pending, reply_len: int, limit: float) -> bool:
+        """After the time-out: keep the expectation until the line is quiet long enough.
+
+        True when the reply completed in this window. A line that never falls quiet (noise)
+        ends the window after another ``limit`` seconds.
+        """
+        pending.late_phase = True
+        quiet = self.timing.late_quiet(reply_len)
+        loop = asyncio.get_running_loop()
+        end = loop.time() + max(limit, quiet)
+        while not pending.future.done() and loop.time() < end:
+            mark = self._rx_chunks
+            await asyncio.wait({pending.future}, timeout=min(quiet, max(0.0, end - loop.time())))
+            if self._rx_chunks == mark:  # a whole quiet period without a byte
+                break
+        if not pending.future.done():
+            for event in self.parser.line_quiet():  # a reply cut short may end here
+                self._route(event)
+            self._idle.set()
+        return pending.future.done() and pending.future.exception() is None
+
+    async def _settle(self) -> None:
+        """Wait (at most one quiet period) for a message still arriving to end."""
+        if not self._idle.is_set():
+            with contextlib.suppress(TimeoutError):
+                await asyncio.wait_for(self._idle.wait(), self.timing.quiet() * 2)
+            if not self._idle.is_set():
+                self._line_quiet()
+
+    def _discard_stale(self, body: str) -> None:
+        """Bytes nobody read yet: counted, traced, searched for unsolicited messages."""
+        stale = self.transport.discard_input()
+        if not stale:
+            return
+        self._counters.stale_bytes += len(stale)
+        self._counters.bytes_in += len(stale)
+        self._counters.busy_time += self.timing.wire(len(stale))
+        self._trace.add(self._clock(), Direction.DISCARD, body, stale, "stale")
+        self.parser.cancel()
+        for event in [*self.parser.feed(stale), *self.parser.line_quiet()]:
+            if isinstance(event, Unsolicited) and event.kind in ALWAYS_MEANT:
+                self._on_unsolicited(event)
+        self._idle.set()
+
+    def _write(self, body: str, data: bytes, now: float) -> None:
+        try:
+            self.transport.write(data)
+        except TransportClosed as exc:
+            self.lose(f"transport closed: {exc}")
+            raise LinkLost(self.lost_cause or str(exc)) from exc
+        self._last_frame = data
+        self._counters.bytes_out += len(data)
+        self._counters.busy_time += self.timing.wire(len(data))
+        self._trace.add(now, Direction.TX, body, data)
+
+    async def probe(
+        self, body: str, frame: bytes, *, reply_len: int, complete: Callable[[bytes], bool]
+    ) -> bytes:
+        """Write ``frame`` and return the raw bytes that answer it, bypassing the parser.
+
+        For reading a controller's framing back when it is in doubt: waits until
+        ``complete(bytes)`` says the answer is in, or the time-out for ``reply_len``
+        characters has passed.
+        """
+        if self.lost_cause is not None:
+            raise LinkLost(self.lost_cause)
+        await self._settle()
+        self._discard_stale(body)
+        self.parser.cancel()
+        loop = asyncio.get_running_loop()
+        self._probe = buffer = bytearray()
+        try:
+            self._write(body, frame, self._clock())
+            deadline = loop.time() + self.timing.real(
+                self.timing.reply_timeout(len(frame), reply_len)
+            )
+            while not complete(bytes(buffer)) and self.lost_cause is None:
+                left = deadline - loop.time()
+                if left <= 0:
+                    break
+                self._probe_changed.clear()
+                with contextlib.suppress(TimeoutError):
+                    await asyncio.wait_for(self._probe_changed.wait(), left)
+            if self.lost_cause is not None:
+                raise LinkLost(self.lost_cause)
+            if not complete(bytes(buffer)):
+                self._counters.timeouts += 1
+                self._trace.add(
+                    self._clock(), Direction.NOTE, body, bytes(buffer), "probe time-out"
+                )
+            return bytes(buffer)
+        finally:
+            self._probe = None
+
+    @property
+    def pending_body(self) -> str | None:
+        """The controller whose reply is awaited now, if any."""
+        return self._pending.body if self._pending is not None else None
+
+    def is_echo(self, raw: bytes) -> bool:
+        """Whether ``raw`` is the last frame written, come back (EE1 that was not expected)."""
+        return bool(raw) and raw == self._last_frame
+
+    def write_raw(self, body: str, data: bytes) -> None:
+        """Write bytes that expect no reply of their own (program text pieces before its CR)."""
+        if self.lost_cause is not None:
+            raise LinkLost(self.lost_cause)
+        self._write(body, data, self._clock())

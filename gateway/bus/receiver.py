@@ -1,0 +1,205 @@
+"""The receiving side of one loop's port: the reader task, the reply parser, the routing.
+
+A reader task reads the port all the time, so unsolicited messages (``$B#*``, ``$B#T``, program
+output, §10 AW/DW/IW/EE///, §10 T, §11-3) are recognised between and around replies; the
+parser (``gateway.protocol.reply_parser``) never lets them satisfy a pending reply. Each event
+goes to the exchange awaiting a reply (when it is that reply), to the scheduler (unsolicited
+messages), or is counted: late (after a time-out), garbled, or stray (framing hints).
+A message left half-received is ended when the line has been quiet for a few characters.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+from collections.abc import Callable
+
+from gateway.bus.counters import Counters
+from gateway.bus.timing import Timing
+from gateway.bus.trace import Direction, LineTrace
+from gateway.protocol.reply_parser import (
+    ChecksumMismatch,
+    Garbled,
+    ReplyEvent,
+    ReplyParser,
+    Unsolicited,
+    UnsolicitedKind,
+)
+from gateway.transport.base import Transport, TransportClosed
+
+__all__ = ["ALWAYS_MEANT", "LinkLost", "Pending", "Receiver"]
+
+#: '$B#*' / '$B#T' are never a reply, whenever they come (parser notes).
+ALWAYS_MEANT = (UnsolicitedKind.EEPROM_DONE, UnsolicitedKind.TIMER_UP)
+
+
+class LinkLost(Exception):
+    """The port went away (or the link was stopped) during an exchange."""
+
+    def __init__(self, cause: str) -> None:
+        super().__init__(cause)
+        self.cause = cause
+
+
+class Pending:
+    """The exchange awaiting its reply."""
+
+    def __init__(self, body: str, future: asyncio.Future[ReplyEvent]) -> None:
+        self.body = body
+        self.future = future
+        self.late_phase = False
+        self.heard = False
+
+
+class Receiver:
+    """The port of one loop as far as reading goes: reader task, parser, routing."""
+
+    def __init__(
+        self,
+        transport: Transport,
+        timing: Timing,
+        counters: Counters,
+        trace: LineTrace,
+        *,
+        on_unsolicited: Callable[[Unsolicited], None],
+        on_stray: Callable[[ReplyEvent, str | None], None],
+        on_lost: Callable[[], None],
+        clock: Callable[[], float],
+    ) -> None:
+        self.transport = transport
+        self.timing = timing
+        self._counters = counters
+        self._trace = trace
+        self._on_unsolicited = on_unsolicited
+        self._on_stray = on_stray
+        self._on_lost = on_lost
+        self._clock = clock
+        self.parser = ReplyParser()
+        self._pending: Pending | None = None
+        self._reader: asyncio.Task[None] | None = None
+        self._quiet_handle: asyncio.TimerHandle | None = None
+        self._idle = asyncio.Event()  # no message half-received
+        self._idle.set()
+        #: the controller that answered last (strays after a reply are attributed to it)
+        self.last_body: str | None = None
+        self._rx_chunks = 0  # chunks received so far (a quiet period sees it unchanged)
+        self._probe: bytearray | None = None  # a framing probe collects raw bytes
+        self._probe_changed = asyncio.Event()
+        self.lost_cause: str | None = None
+        self.lost = asyncio.Event()
+        #: time-outs in a row with no byte received at all (link health)
+        self.silent_timeouts = 0
+        #: any byte received since ``start`` (a reconnect that works resets the backoff)
+        self.heard_any = False
+        self._last_frame = b""  # the last frame written, to recognise its echo (EE1)
+
+    # ------------------------------------------------------------------ lifetime
+
+    def start(self) -> None:
+        """Start reading (the transport is open)."""
+        self.lost_cause = None
+        self.lost.clear()
+        self.silent_timeouts = 0
+        self.heard_any = False
+        self.parser = ReplyParser()
+        self._idle.set()
+        self._reader = asyncio.get_running_loop().create_task(self._read_loop(), name="bus-reader")
+
+    async def stop(self) -> None:
+        """Stop reading; a pending exchange fails with ``LinkLost``."""
+        self.lose("stopped")
+        if self._reader is not None:
+            self._reader.cancel()
+            with contextlib.suppress(asyncio.CancelledError, Exception):
+                await self._reader
+            self._reader = None
+
+    def lose(self, cause: str) -> None:
+        """The line is gone: fail the pending exchange; the scheduler reconnects."""
+        if self.lost_cause is None:
+            self.lost_cause = cause
+            self.lost.set()
+            self._on_lost()
+        if self._quiet_handle is not None:
+            self._quiet_handle.cancel()
+            self._quiet_handle = None
+        self._idle.set()
+        pending = self._pending
+        if pending is not None and not pending.future.done():
+            pending.future.set_exception(LinkLost(self.lost_cause))
+
+    # ------------------------------------------------------------------ receiving
+
+    async def _read_loop(self) -> None:
+        try:
+            while True:
+                data = await self.transport.read()
+                if data:
+                    self._received(data)
+        except TransportClosed as exc:
+            self.lose(f"transport closed: {exc}")
+        except asyncio.CancelledError:
+            raise
+        except Exception as exc:  # the serial library's own errors: the line is gone
+            self.lose(f"read failed: {exc!r}")
+
+    def _received(self, data: bytes) -> None:
+        now = self._clock()
+        self._rx_chunks += 1
+        counters = self._counters
+        counters.bytes_in += len(data)
+        counters.busy_time += self.timing.wire(len(data))
+        self.silent_timeouts = 0
+        self.heard_any = True
+        pending = self._pending
+        if pending is not None:
+            pending.heard = True
+        body = pending.body if pending is not None else None
+        self._trace.add(now, Direction.RX, body, data)
+        if self._probe is not None:
+            self._probe += data  # the framing is in doubt: read raw, not with the parser
+            self._probe_changed.set()
+            return
+        events = self.parser.feed(data)
+        for event in events:
+            self._route(event)
+        # A chunk that did not end with a complete message leaves one half-received.
+        if events and data.endswith(events[-1].raw):
+            self._idle.set()
+        else:
+            self._idle.clear()
+        self._arm_quiet()
+
+    def _arm_quiet(self) -> None:
+        if self._quiet_handle is not None:
+            self._quiet_handle.cancel()
+        loop = asyncio.get_running_loop()
+        self._quiet_handle = loop.call_later(self.timing.quiet(), self._line_quiet)
+
+    def _line_quiet(self) -> None:
+        self._quiet_handle = None
+        for event in self.parser.line_quiet():
+            self._route(event)
+        self._idle.set()
+
+    def _route(self, event: ReplyEvent) -> None:
+        pending = self._pending
+        if event.is_reply and pending is not None and not pending.future.done():
+            self.last_body = pending.body
+            pending.future.set_result(event)
+            return
+        if isinstance(event, Unsolicited) and event.kind in ALWAYS_MEANT:
+            self._on_unsolicited(event)  # '$B#*' / '$B#T' are never a reply (parser notes)
+            return
+        if pending is not None and pending.late_phase:
+            self._counters.late_replies += 1
+            self._trace.add(self._clock(), Direction.NOTE, pending.body, event.raw, "late")
+            return
+        if isinstance(event, Unsolicited):
+            self._on_unsolicited(event)
+            return
+        if isinstance(event, Garbled):
+            self._counters.garbled += 1
+        elif isinstance(event, ChecksumMismatch):
+            self._counters.checksum_errors += 1
+        self._on_stray(event, self.last_body)

@@ -1,0 +1,146 @@
+"""The scheduler of one serial loop: the only writer to its port (DESIGN invariant 1).
+
+``LoopScheduler.submit`` queues a transaction (commands to one controller that no other request
+interleaves) and returns its ``TransactionResult``; ``stop`` sends a stop at stop priority;
+``upload_program`` uploads a user program as one transaction. What happens on the line is
+published on ``events``; ``counters`` and ``trace`` describe the loop. How the queue is served,
+and how the loop goes down and comes back, is ``lifecycle``.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+from collections.abc import Sequence
+
+from gateway.bus.lifecycle import LinkState, LoopLifecycle
+from gateway.bus.requests import STOP_KEYS, Priority, TransactionError, TransactionResult
+from gateway.protocol.framing import BODY_NUMBERS, Framing
+from gateway.protocol.models import Command
+from gateway.protocol.program import Program
+from gateway.protocol.registry import parse
+
+__all__ = ["LinkState", "LoopScheduler"]
+
+
+class LoopScheduler(LoopLifecycle):
+    """Queue, priorities, transactions and link health of one loop.
+
+    ``LoopScheduler(transport, LoopConfig(...))``; ``await start()`` opens the port (one
+    attempt; reconnecting goes on in the background); ``await close()`` ends it.
+    """
+
+    # ------------------------------------------------------------------ public
+
+    async def start(self) -> None:
+        """Open the port (one attempt) and start serving; reconnects in the background."""
+        if self._task is None:
+            self._task = asyncio.get_running_loop().create_task(self._run(), name=self.name)
+        await self._first_attempt.wait()
+
+    async def close(self) -> None:
+        """Stop: queued and later requests fail with ``LoopDown``; the port is closed."""
+        self.state = LinkState.CLOSED
+        self.cause = "the scheduler was closed"
+        self._fail_queued()
+        if self._task is not None:
+            self._task.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await self._task
+            self._task = None
+        await self._link.stop()
+        with contextlib.suppress(Exception):
+            await self.transport.close()
+
+    async def submit(
+        self,
+        body: str,
+        commands: Command | Sequence[Command],
+        *,
+        priority: Priority = Priority.OPERATOR,
+        motor: int | None = None,
+        deadline: float | None = None,
+    ) -> TransactionResult:
+        """Run ``commands`` on controller ``body`` as one transaction; its result.
+
+        ``motor``: the motor the per-motor commands without a suffix are for (the scheduler
+        sends ``F{motor}`` first when needed); None: whatever is selected. ``deadline``: host
+        seconds the request may wait to start (default per priority, ``LoopConfig``).
+        Raises ``LoopDown``, ``DeadlineExpired``, ``TransactionError``.
+        """
+        cmds = (commands,) if isinstance(commands, Command) else tuple(commands)
+        return await self._submit(body, cmds, priority, motor, deadline, None)
+
+    async def stop(self, body: str, command: str = "S") -> TransactionResult:
+        """Send a stop (``S``, ``SS`` or ``GES``) at stop priority."""
+        if command not in STOP_KEYS:
+            raise TransactionError(f"{command!r} is not a stop: one of {sorted(STOP_KEYS)}")
+        return await self.submit(body, parse(command), priority=Priority.STOP)
+
+    async def upload_program(
+        self,
+        body: str,
+        program: Program,
+        *,
+        priority: Priority = Priority.OPERATOR,
+        deadline: float | None = None,
+    ) -> TransactionResult:
+        """Upload a user program: ``I``, then its text ended by CR, as one transaction."""
+        return await self._submit(body, (parse("I"),), priority, None, deadline, program)
+
+    def forget(self, body: str | None = None) -> None:
+        """Drop what the scheduler knows of a controller's selection and framing (power cycle)."""
+        if body is None:
+            self._forget_all()
+        else:
+            self._core.set_selection(body, None)
+        self._core.framing.forget(body)
+        if body is None:
+            self._core.detect_failed.clear()
+        else:
+            self._core.detect_failed.discard(body)
+
+    def selected_motor(self, body: str) -> int | None:
+        """The motor the scheduler believes selected on ``body`` (None: not known)."""
+        return self._core.selection.get(body)
+
+    def framing(self, body: str) -> Framing:
+        """The framing the scheduler uses for ``body``."""
+        return self._core.framing.get(body)
+
+    @property
+    def queue_depth(self) -> int:
+        """Requests waiting to start."""
+        return len(self._queue)
+
+    # ------------------------------------------------------------------ submitting
+
+    async def _submit(
+        self,
+        body: str,
+        commands: tuple[Command, ...],
+        priority: Priority,
+        motor: int | None,
+        deadline: float | None,
+        program: Program | None,
+    ) -> TransactionResult:
+        if len(body) != 1 or body not in BODY_NUMBERS:
+            raise TransactionError(f"body number {body!r} is not one of 0-E (§9-1)")
+        if not commands or not all(isinstance(c, Command) for c in commands):
+            raise TransactionError("a transaction is one or more command models (never text)")
+        if motor not in (None, 1, 2):
+            raise TransactionError(f"motor must be 1 or 2, not {motor!r}")
+        if self.state in (LinkState.DOWN, LinkState.CLOSED):
+            raise self._down_error()
+        if all(c.key in STOP_KEYS for c in commands):
+            priority = Priority.STOP  # a stop outranks everything queued (DESIGN invariant 8)
+        if deadline is None:
+            deadline = self.config.deadline_for(priority)
+        waiter = self._queue.put(
+            body, commands, priority=priority, motor=motor, program=program, deadline=deadline
+        )
+        try:
+            return await waiter.future
+        except asyncio.CancelledError:
+            self._queue.discard(waiter)
+            raise

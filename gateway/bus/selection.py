@@ -1,0 +1,117 @@
+"""Motor selection (§9-1, §10 F): which motor each controller acts on, as the scheduler knows it.
+
+A controller drives two motors; commands without a motor suffix, and every per-motor setting,
+act on the motor ``F`` selected. The scheduler owns the selection (DESIGN invariant 5): a
+per-motor command for motor m goes inside its transaction with ``F{m}`` first whenever the
+cached selection is not m, and the cache is dropped after any doubt (time-out, garbled reply,
+'?', reconnect), so that F is sent again rather than trusted.
+
+What the cache learns from:
+* ``F{m}`` answered '>' and, unless ER1 would have said '>@', confirmed with ``97`` (bit 7 of
+  the condition flags: the selected motor, §10 9; it clears nothing). F is refused while a
+  motor moves (§10 F, 動作中 ×) with the same bare '>': without the confirmation a motor-2
+  setting would land on motor 1.
+* a motion command with a suffix (``4{mt}`` ...): selects that motor when it is executed
+  (§9-1, §10 F), but a refused one (moving, EMS) keeps the old selection with the same '>'
+  (docs/manual-notes.md "Order of the checks"). So the cache takes the suffix only with ER1,
+  where '>' means executed; otherwise it forgets.
+* replies that show the selection: ``9`` (bit 7), ``97``, ``F``.
+
+Stops need no F: the selected motor is the moving one (F is refused while moving, and a suffix
+selects the motor it starts), and §10 F lists S and SS among the commands acting on the selected
+motor.
+"""
+
+from __future__ import annotations
+
+from gateway.bus.requests import STOP_KEYS
+from gateway.protocol.framing import Framing
+from gateway.protocol.models import Command
+from gateway.protocol.registry import parse
+from gateway.protocol.replies import ReplyValue
+from gateway.protocol.reply_values import ConditionFlags
+from gateway.protocol.spec import Scope
+
+__all__ = [
+    "SelectionCache",
+    "confirm_command",
+    "needs_selection",
+    "select_command",
+    "selection_from_reply",
+]
+
+#: §10 9 form II: bit 7 = the selected motor (0 = motor 1, 1 = motor 2); clears nothing.
+_SELECTED_BIT = 7
+
+
+def needs_selection(command: Command) -> bool:
+    """Whether ``command`` acts on the selected motor (per-motor, no motor parameter, no stop)."""
+    return (
+        command.spec.scope is Scope.PER_MOTOR
+        and command.form.motor_param is None
+        and command.key not in STOP_KEYS
+    )
+
+
+def select_command(motor: int) -> Command:
+    """``F{motor}``."""
+    return parse(f"F{motor}")
+
+
+def confirm_command() -> Command:
+    """``97``: the selected-motor bit of the condition flags."""
+    return parse(f"9{_SELECTED_BIT}")
+
+
+def selection_from_reply(command: Command, value: ReplyValue | None) -> int | None:
+    """The selected motor a reply shows, or None when it shows none."""
+    if value is None or isinstance(value, bool):
+        return None
+    if command.key == "9" and isinstance(value, ConditionFlags):
+        return value.selected_motor
+    if command.key == "9{bit}" and int(command.params()["bit"]) == _SELECTED_BIT:
+        return 2 if value == 1 else 1 if value == 0 else None
+    if command.key == "F" and value in (1, 2):
+        return int(value)
+    return None
+
+
+class SelectionCache:
+    """The selected motor per controller, or nothing when in doubt."""
+
+    def __init__(self) -> None:
+        self._selected: dict[str, int] = {}
+
+    def get(self, body: str) -> int | None:
+        """The motor believed selected, None when not known."""
+        return self._selected.get(body)
+
+    def set(self, body: str, motor: int) -> bool:
+        """Remember ``motor``; True when that changed the cache."""
+        changed = self._selected.get(body) != motor
+        self._selected[body] = motor
+        return changed
+
+    def forget(self, body: str | None = None) -> bool:
+        """Drop the cache of ``body`` (None: every controller); True when something was known."""
+        if body is None:
+            known = bool(self._selected)
+            self._selected.clear()
+            return known
+        return self._selected.pop(body, None) is not None
+
+    def after_accepted(self, body: str, command: Command, framing: Framing) -> int | bool | None:
+        """Update for a command answered '>' (not '>@'); returns what changed.
+
+        Returns the newly selected motor, None when the cache was dropped, False when the
+        command says nothing about the selection.
+        """
+        if not command.form.selects_motor:
+            return False
+        motor = command.motor
+        # F is confirmed by the caller (97) unless ER1; a suffix is executed under ER1.
+        if (command.key == "F{mt}" or framing.error_mark) and motor is not None:
+            self.set(body, motor)
+            return motor
+        self.forget(body)
+        return None

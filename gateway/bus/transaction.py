@@ -1,0 +1,273 @@
+"""Running one transaction: its commands in order, with the frames the scheduler adds.
+
+For each command of the caller:
+
+1. a framing in doubt is read back first (``detect``);
+2. a per-motor command gets ``F{m}`` first when the cached selection is not m (``selection``);
+3. a motion command gets a position read ``6{mt}`` right before it, a non-idempotent setting a
+   read of its value (``verify``);
+4. the command is sent: '?' -> sent again, up to ``nak_retries`` (§9-2: not taken); a lost,
+   garbled or bad-checksum reply -> sent again only when idempotent and starting no motion,
+   otherwise read back and reported DONE / NOT_DONE / UNKNOWN (DESIGN invariant 6);
+5. EEPROM writes hold the line until their ``$B#*`` (§10 AW, DW, IW, EE///), serving stops.
+
+The first command that is not DONE ends the transaction; the rest are reported SKIPPED.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+from gateway.bus.core import DOUBT, FRAMING_KEYS, LoopCore, Sent
+from gateway.bus.detect import ensure_framing
+from gateway.bus.eeprom_hold import hold_for_write
+from gateway.bus.requests import CommandResult, Outcome, ReplyKind
+from gateway.bus.selection import confirm_command, needs_selection, select_command
+from gateway.bus.upload import upload
+from gateway.bus.verify import (
+    ValueCheck,
+    is_motion,
+    motion_outcome,
+    position_query,
+    resendable,
+    status_query,
+    value_check,
+    value_outcome,
+)
+from gateway.protocol.framing import Framing, framing_switch
+from gateway.protocol.models import Command
+from gateway.protocol.program import Program
+from gateway.protocol.replies import ReplyValue
+from gateway.protocol.reply_values import StatusFlags
+from gateway.protocol.spec import ReplyFormat
+
+__all__ = ["TransactionRunner"]
+
+
+class TransactionRunner:
+    """One transaction to one controller; ``run`` sends it."""
+
+    def __init__(
+        self,
+        core: LoopCore,
+        body: str,
+        commands: tuple[Command, ...],
+        motor: int | None,
+        program: Program | None = None,
+    ) -> None:
+        self.core = core
+        self.body = body
+        self.commands = commands
+        self.motor = motor
+        self.program = program
+
+    async def run(self) -> tuple[list[CommandResult], int]:
+        """Every command's result, and the number of frames sent."""
+        first = self.core.counters.exchanges
+        results: list[CommandResult] = []
+        failed: CommandResult | None = None
+        for command in self.commands:
+            if failed is not None:
+                note = f"not sent: {failed.command.wire()!r} ended {failed.outcome.value}"
+                results.append(
+                    CommandResult(
+                        command, ReplyKind.SKIPPED, Outcome.NOT_DONE, attempts=0, note=note
+                    )
+                )
+                continue
+            if self.program is not None and command.key == "I":
+                result = await upload(self.core, self.body, command, self.program, self._query)
+            else:
+                result = await self._step(command)
+            results.append(result)
+            if result.outcome is not Outcome.DONE:
+                failed = result
+        return results, self.core.counters.exchanges - first
+
+    # ------------------------------------------------------------------ helpers
+
+    def _axis(self, command: Command) -> int | None:
+        if command.motor is not None:
+            return command.motor
+        return self.motor if self.motor is not None else self.core.selection.get(self.body)
+
+    async def _send_retrying(self, command: Command, motor: int | None) -> Sent:
+        """Send with the retries the form allows: '?' always, a lost reply if resendable."""
+        config = self.core.config
+        naks = resends = 0
+        while True:
+            sent = await self.core.send(self.body, command, motor)
+            if sent.kind is ReplyKind.NOT_ACCEPTED and naks < config.nak_retries:
+                naks += 1
+            elif sent.kind in DOUBT and resendable(command) and resends < config.resend_retries:
+                resends += 1
+            else:
+                return sent
+            self.core.counters.retries += 1
+
+    async def _query(self, command: Command) -> ReplyValue | None:
+        """A read the scheduler makes for itself; its value, None when none came."""
+        sent = await self._send_retrying(command, self.motor)
+        return sent.value if sent.kind is ReplyKind.DATA else None
+
+    async def _confirm(self, motor: int) -> bool:
+        """After '>' to F{m}: is m selected? (F is refused while a motor moves, §10 F)."""
+        core = self.core
+        if core.framing.get(self.body).error_mark or not core.config.confirm_selection:
+            core.set_selection(self.body, motor)  # with ER1 a refused F would be '>@'
+            return True
+        core.set_selection(self.body, None)
+        await self._query(confirm_command())  # the reply sets the selection it shows
+        return core.selection.get(self.body) == motor
+
+    async def _selected(self, command: Command) -> bool:
+        """The motor ``command`` needs is selected (F sent first when the cache differs)."""
+        motor = self.motor
+        if motor is None or not needs_selection(command):
+            return True
+        return self.core.selection.get(self.body) == motor or await self._select(motor)
+
+    async def _select(self, motor: int) -> bool:
+        """Send F{motor} and confirm it."""
+        sent = await self._send_retrying(select_command(motor), motor)
+        return sent.kind is ReplyKind.ACCEPTED and await self._confirm(motor)
+
+    # ------------------------------------------------------------------ one command
+
+    async def _step(self, command: Command) -> CommandResult:
+        core, body, config = self.core, self.body, self.core.config
+        st = _Step(command, value_check(command))
+        while True:
+            await ensure_framing(core, body)
+            st.framing = core.framing.get(body)
+            refused = await self._prepare(st)
+            if refused is not None:
+                return refused
+            st.mark = core.eeprom_done.get(body, 0)
+            sent = await core.send(body, command, self.motor)
+            st.attempts += 1
+            if sent.kind is ReplyKind.NOT_ACCEPTED:
+                if self._again_after_nak(st):
+                    continue
+                return st.result(sent.kind, Outcome.NOT_DONE, sent.note)
+            if sent.kind in DOUBT:
+                if resendable(command) and st.resends < config.resend_retries:
+                    st.resends += 1
+                    core.counters.retries += 1
+                    continue
+                if resendable(command):
+                    return st.result(sent.kind, Outcome.UNKNOWN, sent.note)
+                return await self._verify(st, sent.kind)
+            return await self._finish(st, sent)
+
+    async def _prepare(self, st: _Step) -> CommandResult | None:
+        """F first when needed; the pre-reads of motion and non-idempotent settings."""
+        command, motor = st.command, self.motor
+        if not await self._selected(command):
+            note = f"F{motor} was not taken (a motor moving? §10 F): not sent"
+            return st.result(ReplyKind.SKIPPED, Outcome.NOT_DONE, note)
+        if is_motion(command):  # right before every send of the move
+            value = await self._query(position_query(self._axis(command)))
+            st.before_pos = value if isinstance(value, int) else None
+            st.seen["position_before"] = st.before_pos
+        if st.check is not None and st.before_value is None:
+            st.before_value = await self._query(st.check.query)
+            st.seen["value_before"] = st.before_value
+        return None
+
+    def _again_after_nak(self, st: _Step) -> bool:
+        """'?': the controller did not take the frame (§9-2); whether to send it again."""
+        core = self.core
+        if st.naks < core.config.nak_retries:
+            st.naks += 1
+            core.counters.retries += 1
+            return True
+        if not (st.framing.checksum or st.reframed or core.framing.confirmed(self.body)):
+            # A controller with SUM1 answers every frame without a checksum '?' (§10 SUM):
+            # read the framing back (it is not known yet), then try once more.
+            st.reframed = True
+            st.naks = 0
+            core.framing.suspect(self.body, "every frame answered '?' (SUM1?)")
+            return True
+        return False
+
+    async def _finish(self, st: _Step, sent: Sent) -> CommandResult:
+        """A reply came: '>@', a refused query's bare '>', a confirmed F, an EEPROM hold."""
+        command = st.command
+        if sent.kind is ReplyKind.REJECTED or (
+            sent.kind is ReplyKind.ACCEPTED and command.reply_format.has_data
+        ):
+            return st.result(sent.kind, Outcome.NOT_DONE, sent.note)
+        outcome, note = Outcome.DONE, sent.note
+        selected = command.motor if command.key == "F{mt}" else None
+        if selected is not None and not await self._confirm(selected):
+            outcome, note = Outcome.NOT_DONE, "F answered '>' but the selection stayed"
+        if command.reply_format is ReplyFormat.ACK_THEN_DONE:
+            outcome = await hold_for_write(self.core, self.body, command, st.mark, st.seen)
+        return st.result(sent.kind, outcome, note, value=sent.value, late=sent.late)
+
+    async def _verify(self, st: _Step, kind: ReplyKind) -> CommandResult:
+        """The reply of a command that must not be sent again was lost: read back."""
+        core, command, seen = self.core, st.command, st.seen
+        core.counters.verifications += 1
+        if is_motion(command):
+            status = await self._query(status_query())
+            after = await self._query(position_query(self._axis(command)))
+            flags = status if isinstance(status, StatusFlags) else None
+            after_pos = after if isinstance(after, int) else None
+            seen.update(status=flags, position_after=after_pos)
+            outcome = motion_outcome(flags, st.before_pos, after_pos)
+            how = "read back the status and the position"
+        elif st.check is not None:
+            after_value = await self._query(st.check.query)
+            seen["value_after"] = after_value
+            outcome = value_outcome(st.before_value, after_value, st.check)
+            how = f"read back {st.check.query.wire()}"
+        elif command.key in FRAMING_KEYS:
+            expected = framing_switch(st.framing, command.wire()).after
+            await ensure_framing(core, self.body)
+            now = core.framing.get(self.body)
+            seen["framing"] = now
+            if not core.framing.confirmed(self.body):
+                outcome = Outcome.UNKNOWN
+            else:
+                outcome = Outcome.DONE if now == expected else Outcome.NOT_DONE
+            how = "read the framing back"
+        elif command.reply_format is ReplyFormat.ACK_THEN_DONE:
+            outcome = await hold_for_write(core, self.body, command, st.mark, seen)
+            how = "waited for $B#*"
+        else:
+            outcome, how = Outcome.UNKNOWN, "nothing reads it back"
+        return st.result(kind, outcome, f"reply lost; {how}")
+
+
+@dataclass
+class _Step:
+    """One caller's command on its way: attempts so far and what the pre-reads saw."""
+
+    command: Command
+    check: ValueCheck | None
+    attempts: int = 0
+    naks: int = 0
+    resends: int = 0
+    reframed: bool = False
+    framing: Framing = field(default_factory=Framing)
+    mark: int = 0  # $B#* seen before the send (EEPROM writes)
+    before_pos: int | None = None
+    before_value: ReplyValue | None = None
+    seen: dict[str, Any] = field(default_factory=dict)
+
+    def result(
+        self,
+        kind: ReplyKind,
+        outcome: Outcome,
+        note: str = "",
+        *,
+        value: ReplyValue | None = None,
+        late: bool = False,
+    ) -> CommandResult:
+        """The command's result so far."""
+        return CommandResult(
+            self.command, kind, outcome, value, self.attempts, late, dict(self.seen), note
+        )

@@ -1,0 +1,97 @@
+"""Program upload (§10 I, §11-3): ``I``, then the program text ended by CR, in one transaction.
+
+The text goes out raw after the '>' of ``I``, in the pieces ``upload_chunks`` cuts (the device
+joins them; the first CR ends the transfer), and is answered '>' (no echo, no checksum:
+docs/manual-notes.md, "Program text after I"). ``I`` answered '?' is sent again (§9-2). After a
+lost reply the text still goes out: without a '$' it is ignored by every controller that is not
+waiting for program text (§9-1), so sending it can do no harm; then ``IR`` reads back what the
+controller holds and decides the outcome.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Awaitable, Callable
+from dataclasses import replace
+from typing import Any
+
+from gateway.bus.core import LoopCore
+from gateway.bus.detect import ensure_framing
+from gateway.bus.requests import CommandResult, Outcome, ReplyKind
+from gateway.bus.timing import ack_chars
+from gateway.protocol.framing import CR, to_wire
+from gateway.protocol.models import Command
+from gateway.protocol.program import Program, upload_chunks
+from gateway.protocol.registry import parse
+from gateway.protocol.replies import ReplyValue
+from gateway.protocol.reply_parser import Accepted, CommandRejected
+
+__all__ = ["upload"]
+
+Query = Callable[[Command], Awaitable[ReplyValue | None]]
+
+
+async def upload(
+    core: LoopCore, body: str, command: Command, program: Program, query: Query
+) -> CommandResult:
+    """Send ``I`` and ``program``; the result of the whole upload, reported under ``I``."""
+    seen: dict[str, Any] = {}
+    naks = attempts = 0
+    while True:
+        await ensure_framing(core, body)
+        sent = await core.send(body, command)
+        attempts += 1
+        if sent.kind is not ReplyKind.NOT_ACCEPTED or naks >= core.config.nak_retries:
+            break
+        naks += 1
+        core.counters.retries += 1
+    seen["i_reply"] = sent.kind
+    if sent.kind in (ReplyKind.NOT_ACCEPTED, ReplyKind.REJECTED):
+        return CommandResult(
+            command, sent.kind, Outcome.NOT_DONE, attempts=attempts, seen=seen, note=sent.note
+        )
+    text_kind = await _send_text(core, body, program)
+    seen["text_reply"] = text_kind
+    if text_kind is ReplyKind.ACCEPTED:
+        return CommandResult(
+            command, sent.kind, Outcome.DONE, attempts=attempts, late=sent.late, seen=seen
+        )
+    if text_kind is ReplyKind.REJECTED:
+        return CommandResult(
+            command, text_kind, Outcome.NOT_DONE, attempts=attempts, seen=seen, note="refused"
+        )
+    core.counters.verifications += 1
+    stored = await query(parse("IR"))
+    seen["read_back"] = stored
+    if stored is None:
+        outcome = Outcome.UNKNOWN
+    else:
+        outcome = Outcome.DONE if stored == program.text() else Outcome.NOT_DONE
+    note = "reply lost; read back IR"
+    return CommandResult(command, text_kind, outcome, attempts=attempts, seen=seen, note=note)
+
+
+async def _send_text(core: LoopCore, body: str, program: Program) -> ReplyKind:
+    framing = replace(core.framing.get(body), echo=False)
+    pieces = [to_wire(chunk) for chunk in upload_chunks(program, core.config.upload_chunk)]
+    before = 0
+    for piece in pieces[:-1]:
+        core.link.write_raw(body, piece)
+        before += len(piece)
+    exchange = await core.link.exchange(
+        body,
+        pieces[-1] + CR,
+        has_data=False,
+        framing=framing,
+        series=core.config.series_of(body),
+        reply_len=ack_chars(framing, 0),
+        expect_sent=b"",
+        sent_before=before,
+    )
+    core.counters.exchanges += 1
+    event = exchange.event
+    if isinstance(event, Accepted):
+        return ReplyKind.ACCEPTED
+    if isinstance(event, CommandRejected):
+        return ReplyKind.REJECTED
+    core.doubt(body)
+    return ReplyKind.TIMEOUT if event is None else ReplyKind.GARBLED

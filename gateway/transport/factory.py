@@ -1,0 +1,72 @@
+"""From configuration to a line: ``open_transport(url, baud)``, and the reconnect ``Backoff``.
+
+``url`` is a device path (``/dev/ttyUSB0``, ``/dev/serial/by-id/...``), ``socket://HOST:PORT``
+(a serial device server such as ser2net or a Moxa NPort in TCP-server mode) or
+``rfc2217://HOST:PORT``. ``baud`` is one of the RC-233's rates (§2 仕様: 9600, 1200, 300 bps;
+§10 ES); it sets the port's rate (device path, rfc2217) and the scheduler's timing of the line
+(for ``socket://`` the device server's own setting must match it).
+"""
+
+from __future__ import annotations
+
+import random
+from dataclasses import dataclass, field
+from typing import Any
+
+from gateway.transport.base import Transport
+from gateway.transport.serial_line import SerialLine
+
+__all__ = ["BAUD_RATES", "Backoff", "open_transport"]
+
+#: The rates an RC-233 talks at (§2 仕様 "ボーレイト : 9600, 1200, 300bps"; §10 ES 0/1/2).
+BAUD_RATES = (9600, 1200, 300)
+
+
+def open_transport(url: str, baud: int, **options: Any) -> Transport:
+    """The ``Transport`` for ``url`` at ``baud`` (not opened yet: call ``open``).
+
+    ``options`` go to ``SerialLine`` (``open_timeout``, ``close_timeout``, ``keepalive``).
+    ``ValueError`` naming the field (``url`` or ``baud``) and what is allowed, for anything else.
+    """
+    if isinstance(baud, bool) or not isinstance(baud, int) or baud not in BAUD_RATES:
+        raise ValueError(
+            f"baud {baud!r}: the RC-233 talks at {', '.join(map(str, BAUD_RATES))} bps (§2, §10 ES)"
+        )
+    return SerialLine(url, baud, **options)
+
+
+@dataclass
+class Backoff:
+    """Delays between reconnection attempts: ``first``, growing by ``factor`` up to ``maximum``.
+
+    Each delay is spread by up to ``jitter`` (a fraction, both ways) so that gateways that lost
+    the same device server do not all come back in step. ``reset`` after a successful open.
+    """
+
+    first: float = 0.5
+    maximum: float = 30.0
+    factor: float = 2.0
+    jitter: float = 0.1
+    rng: random.Random = field(default_factory=random.Random, repr=False)
+    attempts: int = field(default=0, init=False)
+
+    def __post_init__(self) -> None:
+        if not 0 < self.first <= self.maximum:
+            raise ValueError(
+                f"backoff: need 0 < first <= maximum, not {self.first}, {self.maximum}"
+            )
+        if self.factor < 1 or not 0 <= self.jitter < 1:
+            raise ValueError(
+                f"backoff: need factor >= 1, 0 <= jitter < 1 ({self.factor}, {self.jitter})"
+            )
+
+    def next_delay(self) -> float:
+        """Seconds to wait before the next attempt (and count the attempt)."""
+        base = min(self.maximum, self.first * self.factor ** min(self.attempts, 64))
+        self.attempts += 1
+        spread = 1 + self.jitter * (2 * self.rng.random() - 1)
+        return min(self.maximum, base * spread)
+
+    def reset(self) -> None:
+        """The line is back: the next failure starts again at ``first``."""
+        self.attempts = 0

@@ -1,0 +1,232 @@
+"""The poller against the real scheduler on the in-process simulator.
+
+What is checked is what a user of the gateway would notice: the frames on the simulated line
+(its log, in simulated seconds), the state the cache shows, and the device's own flags read
+back through the scheduler. Waiting is always on a condition (state changes, line records),
+never on a sleep.
+"""
+
+from __future__ import annotations
+
+import asyncio
+from collections.abc import AsyncIterator, Callable
+from dataclasses import dataclass
+from itertools import pairwise
+
+import pytest
+
+from gateway.bus.config import LoopConfig
+from gateway.bus.poller import PollConfig, Poller, attach
+from gateway.bus.requests import Priority
+from gateway.bus.scheduler import LoopScheduler
+from gateway.bus.state import Change, ErrorKind, StateCache
+from gateway.protocol.registry import parse
+from gateway.protocol.reply_values import ProgramState, StatusFlags
+from gateway.sim.cli import build_loop
+from gateway.sim.clock import LineRecord, RecordKind, SimClock
+from gateway.sim.control import Controls
+from gateway.sim.loop import SimLoop
+from gateway.sim.serve import SimPort
+from gateway.transport.pipe import PipeTransport
+
+LOOP = "L"
+ALL_BODIES = "0123456789ABCDE"  # 15 controllers: the most one '$' loop holds (§3-III)
+
+
+@dataclass
+class Rig:
+    """A simulated loop, its scheduler, the state cache and the poller."""
+
+    sim: SimLoop
+    scheduler: LoopScheduler
+    state: StateCache
+    poller: Poller
+    ports: list[SimPort]
+
+    @property
+    def controls(self) -> Controls:
+        return Controls(self.sim)
+
+    async def until(self, check: Callable[[], bool], timeout: float = 20.0) -> None:
+        """Wait (real seconds) until ``check()`` holds, re-checked on every state change."""
+        changed = asyncio.Event()
+        stop = self.state.listen(lambda _c: changed.set())
+        try:
+            async with asyncio.timeout(timeout):
+                while not check():
+                    changed.clear()
+                    await changed.wait()
+        finally:
+            stop()
+
+    async def identified(self, bodies: str, timeout: float = 30.0) -> None:
+        """Wait until every controller of ``bodies`` was read through, framing included."""
+        await self.until(lambda: all(self.frames(f"${b}EL\r".encode()) for b in bodies), timeout)
+
+    async def sim_time(self, t: float, timeout: float = 20.0) -> None:
+        """Wait until the simulated line has passed time ``t`` (the poller keeps it busy)."""
+        await self.sim.log.wait_for(lambda r: r.time >= t, self.sim.log.next_seq, timeout)
+
+    def frames(self, text: bytes, since: float = 0.0) -> list[LineRecord]:
+        """The frames ``text`` the controllers heard from simulated time ``since`` on."""
+        return [
+            r
+            for r in self.sim.log.since(0)
+            if r.kind is RecordKind.HEARD and r.data == text and r.time >= since
+        ]
+
+    def answered(self, text: bytes, start: float, end: float) -> list[LineRecord]:
+        """Replies that reached the host in [start, end) to frames ``text``."""
+        refs = {r.ref for r in self.frames(text)}
+        return [
+            r
+            for r in self.sim.log.since(0)
+            if r.kind is RecordKind.REPLY and r.ref in refs and start <= r.time < end
+        ]
+
+
+@pytest.fixture
+async def rig() -> AsyncIterator[Callable[..., Rig]]:
+    made: list[Rig] = []
+
+    async def make(bodies: str = "12", scale: float = 5.0, **config: float) -> Rig:
+        sim = build_loop(list(bodies), clock=SimClock(scale))
+        ports: list[SimPort] = []
+
+        def connect() -> SimPort:
+            ports.append(SimPort(sim))
+            return ports[-1]
+
+        scheduler = LoopScheduler(
+            PipeTransport(connect, url="pipe://sim"), LoopConfig(name=LOOP, time_scale=scale)
+        )
+        state = StateCache()
+        poller = attach(scheduler, state, list(bodies), PollConfig(**config))
+        r = Rig(sim, scheduler, state, poller, ports)
+        made.append(r)
+        await scheduler.start()
+        poller.start()
+        return r
+
+    yield make  # type: ignore[misc]
+    for r in made:
+        await r.poller.stop()
+        await r.scheduler.close()
+        r.sim.close()
+
+
+async def move(r: Rig, body: str, motor: int, target: int) -> None:
+    """Set the position data and start an absolute move (§10 2, §10 3 with a motor suffix)."""
+    result = await r.scheduler.submit(
+        body, [parse(f"2{target}"), parse(f"3{motor}")], priority=Priority.OPERATOR
+    )
+    assert result.ok, result
+
+
+async def test_moving_axis_gets_15_position_reads_a_second_among_15_controllers(
+    rig: Callable[..., Rig],
+) -> None:
+    r = await rig(ALL_BODIES, scale=4.0)
+    # Every controller identified from the device first (V read on the line).
+    await r.identified(ALL_BODIES)
+    assert all(r.state.controller(LOOP, b).version for b in ALL_BODIES)
+    # 20,000 pulses at the default 5,000 pps (OH 5000, §16): about 4 simulated seconds.
+    await move(r, "7", 1, 20000)
+    await r.until(lambda: r.state.axis(LOOP, "7", 1).moving)
+    start = r.sim.now()
+    await r.sim_time(start + 2.0)
+    replies = r.answered(b"$761\r", start, start + 2.0)
+    assert len(replies) >= 2 * 15, f"{len(replies)} position reads in 2 simulated seconds"
+    # The idle controllers are still watched: each had its status read in that window.
+    for body in ALL_BODIES.replace("7", ""):
+        assert r.frames(f"${body}\r".encode(), since=start), body
+    # The position the cache shows follows the move.
+    await r.until(lambda: not r.state.axis(LOOP, "7", 1).moving)
+    await r.until(lambda: r.state.axis(LOOP, "7", 1).position == 20000)
+    # Thousands of polls, and not one of them refused by a controller (a command error).
+    assert not any(r.state.controller(LOOP, b).latched for b in ALL_BODIES)
+
+
+async def test_an_error_the_poller_cleared_is_reported_until_acknowledged(
+    rig: Callable[..., Rig],
+) -> None:
+    r = await rig("12", scale=5.0)
+    seen: list[Change] = []
+    r.state.listen(seen.append)  # a subscriber (a dashboard, say)
+    await r.until(lambda: r.state.controller(LOOP, "1").version is not None)
+    await move(r, "1", 1, 20000)
+    await r.until(lambda: r.state.axis(LOOP, "1", 1).moving)
+    # The CW limit sensor turns ON while the motor runs CW: the controller stops with a
+    # limit error (§10 "" bit 1).
+    r.controls.sensor("1", 1, "cw_limit", True)
+    await r.until(lambda: r.state.axis(LOOP, "1", 1).limit_error)
+    # The poll after the stop reads the sensors of the motor that moved: CWLS ON (§10 CL).
+    await r.until(lambda: getattr(r.state.axis(LOOP, "1", 1).sensors, "cw_limit", False))
+    latch = r.state.controller(LOOP, "1").latched[ErrorKind.LIMIT]
+    assert latch.source == '""' and latch.axes == {1}
+    # The poller's "" cleared it on the device: a read now shows no error ...
+    result = await r.scheduler.submit("1", [parse("")], priority=Priority.OPERATOR)
+    assert isinstance(result.value, StatusFlags) and not result.value.limit_error
+    # ... and polls go on, yet the gateway still reports it, to every subscriber.
+    polls = len(r.frames(b"$1\r"))
+    await r.until(lambda: len(r.frames(b"$1\r")) >= polls + 3)
+    assert r.state.axis(LOOP, "1", 1).limit_error
+    assert any(c.body == "1" and c.motor == 1 and c.values.get("limit_error") for c in seen)
+    # Acknowledged: gone, and it does not come back with the next polls.
+    assert r.state.acknowledge(LOOP, "1", r.scheduler.clock(), motor=1) == [ErrorKind.LIMIT]
+    polls = len(r.frames(b"$1\r"))
+    await r.until(lambda: len(r.frames(b"$1\r")) >= polls + 3)
+    assert not r.state.axis(LOOP, "1", 1).limit_error
+
+
+async def test_a_controller_switched_off_goes_offline_and_comes_back_identified(
+    rig: Callable[..., Rig],
+) -> None:
+    r = await rig("12", scale=5.0, idle_period=0.2, probe_initial=0.4, probe_max=2.0)
+    await r.identified("12")
+    r.controls.power("2", False)
+    await r.until(lambda: r.state.controller(LOOP, "2").online is False)
+    assert r.state.axis(LOOP, "2", 1).stale and r.state.controller(LOOP, "1").online
+    # Offline it is probed with backoff (0.4, 0.8, 1.6, 2.0 s), not polled every 0.2 s.
+    offline = r.sim.now()
+    await r.sim_time(offline + 5.0)
+    probes = [f.time for f in r.frames(b"$2\r", since=offline)]
+    gaps = [b - a for a, b in pairwise(probes)]
+    assert 2 <= len(probes) <= 5, probes
+    assert gaps == sorted(gaps) and gaps[0] >= 0.4, gaps
+    # Body 1 was polled at its idle rate all along.
+    assert len(r.frames(b"$1\r", since=offline)) >= 5.0 / 0.2 * 0.8
+    on = r.sim.now()
+    r.controls.power("2", True)
+    await r.until(lambda: r.state.controller(LOOP, "2").online is True)
+    # Back online: version, mode and framing read again from the device, after the power-on.
+    for frame in (b"$2V\r", b"$294\r", b"$2SUM\r", b"$2EE\r", b"$2EL\r", b"$2ER\r"):
+        await r.until(lambda f=frame: bool(r.frames(f, since=on)))  # type: ignore[misc]
+
+
+async def test_link_up_reads_every_controller_again(rig: Callable[..., Rig]) -> None:
+    r = await rig("12", scale=5.0)
+    await r.until(lambda: all(r.state.controller(LOOP, b).version for b in "12"))
+    mark = r.sim.now()
+    r.ports[-1].close()  # the line goes away; the scheduler reopens it (a new port)
+    await r.until(lambda: len(r.ports) >= 2 and bool(r.frames(b"$1V\r", since=mark)))
+    await r.until(lambda: bool(r.frames(b"$2V\r", since=mark)))
+    assert r.state.loop(LOOP).up
+    # The slower polls carry on as well: the program state (GSS '0': no program running).
+    await r.until(lambda: r.state.controller(LOOP, "2").program is ProgramState.ENDED)
+
+
+async def test_a_move_started_by_a_client_is_polled_at_once(rig: Callable[..., Rig]) -> None:
+    # Idle polls once a (simulated) minute: only the forced poll can see the move start.
+    r = await rig("1", scale=5.0, idle_period=60.0)
+    await r.identified("1")
+    await move(r, "1", 2, 20000)
+    started = r.sim.now()
+    await r.until(lambda: r.state.axis(LOOP, "1", 2).moving, 5.0)
+    status = r.frames(b"$1\r", since=started)
+    assert status and status[0].time - started < 0.1
+    # No poll was refused for the move (E, EE, EL, ER, CLM are not usable while moving):
+    # no command error appears that nobody made.
+    await r.until(lambda: not r.state.axis(LOOP, "1", 2).moving, 10.0)
+    await r.until(lambda: r.state.controller(LOOP, "1").status is not None)
+    assert ErrorKind.COMMAND not in r.state.controller(LOOP, "1").latched
