@@ -22,6 +22,8 @@ import argparse
 import asyncio
 import json
 import statistics
+import time
+from typing import Any
 
 from gateway.bus.config import LoopConfig
 from gateway.bus.requests import Priority
@@ -35,6 +37,27 @@ from gateway.transport.pipe import PipeTransport
 BODIES = ["1", "2", "3"]
 READS = ["6", "OH", "9{b}", "CL", "2D", "OX"]
 BITS_PER_CHAR = 10
+
+
+class _Timed(PipeTransport):
+    """The in-process transport, noting when a reply ended and when the next frame left."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self.host_gaps: list[float] = []  # real seconds from a reply's CR to the next write
+        self._reply_end: float | None = None
+
+    async def read(self) -> bytes:
+        data = await super().read()
+        if data.endswith(b"\r") or data.endswith(b">"):
+            self._reply_end = time.perf_counter()
+        return data
+
+    def write(self, data: bytes) -> None:
+        if self._reply_end is not None:
+            self.host_gaps.append(time.perf_counter() - self._reply_end)
+            self._reply_end = None
+        super().write(data)
 
 
 def _percentile(values: list[float], q: float) -> float:
@@ -54,7 +77,7 @@ async def measure(seconds: float, scale: float, baud: int, callers: int) -> dict
     """Run the load for ``seconds`` of device time; the figures."""
     clock = SimClock(scale)
     sim = build_loop(BODIES, clock=clock, baud=baud)
-    transport = PipeTransport(lambda: SimPort(sim), url="pipe://sim", baud=baud)
+    transport = _Timed(lambda: SimPort(sim), url="pipe://sim", baud=baud)
     scheduler = LoopScheduler(transport, LoopConfig(name="bench", time_scale=scale))
     await scheduler.start()
     stop = asyncio.Event()
@@ -70,12 +93,12 @@ async def measure(seconds: float, scale: float, baud: int, callers: int) -> dict
         submitted = clock.now()
         seq = sim.log.next_seq
         await scheduler.stop("1")
-        heard = next(
+        stop_frame = next(
             r
             for r in sim.log.since(seq)
             if r.kind is RecordKind.HEARD and r.data.rstrip(b"\r").endswith(b"1S")
         )
-        latencies.append(heard.time - submitted)
+        latencies.append(stop_frame.time - submitted)
         await asyncio.sleep(0.1 / scale)  # a stop every 100 ms of device time
     end = clock.now()
     stop.set()
@@ -99,6 +122,10 @@ async def measure(seconds: float, scale: float, baud: int, callers: int) -> dict
         "replies": len(replies),
         "line_efficiency": round(busy / (end - start), 4),
         "target": 0.97,
+        # The scheduler's own share of the gaps: real time from a reply's last byte read to
+        # the next frame written (the rest of the idle time is the simulator's timers).
+        "host_gap_ms_p50": round(statistics.median(transport.host_gaps) * 1000, 3),
+        "host_gap_ms_p99": round(_percentile(transport.host_gaps, 0.99) * 1000, 3),
         "stops": len(latencies),
         "stop_latency_ms_p50": round(statistics.median(latencies) * 1000, 2),
         "stop_latency_ms_p99": round(_percentile(latencies, 0.99) * 1000, 2),

@@ -67,6 +67,10 @@ class Submitter(Protocol):
         """Run ``commands`` on ``body`` as one transaction."""
         ...
 
+    def forget(self, body: str | None = None) -> None:
+        """Drop what the scheduler assumed of ``body`` (selection, framing)."""
+        ...
+
 
 class Job(IntEnum):
     """A kind of poll; the order is the urgency among jobs that are due."""
@@ -339,6 +343,9 @@ class Poller:
             return False
         plan.misses = 0
         if plan.online is False:  # back: identify it again before anything else
+            # A controller that was off came back with RAM lost: its selection is F1 and its
+            # framing whatever DW stored (§16, §10 DL). Forget what the scheduler assumed.
+            self._scheduler.forget(plan.body)
             plan.due = {Job.IDENTIFY: now}
             self._state.set_online(self.loop, plan.body, True, now)
         plan.online = True

@@ -42,7 +42,10 @@ from gateway.protocol.replies import ReplyValue
 from gateway.protocol.reply_values import StatusFlags
 from gateway.protocol.spec import ReplyFormat
 
-__all__ = ["TransactionRunner"]
+__all__ = ["FLAG_CLEARING_FORMS", "TransactionRunner"]
+
+#: Forms that clear latched device errors as a side effect, without reporting them (§10 K).
+FLAG_CLEARING_FORMS = frozenset({"K{dt},{du}{dl}", "K{dt},{bt}", "KC"})
 
 
 class TransactionRunner:
@@ -167,6 +170,11 @@ class TransactionRunner:
         if not await self._selected(command):
             note = f"F{motor} was not taken (a motor moving? §10 F): not sent"
             return st.result(ReplyKind.SKIPPED, Outcome.NOT_DONE, note)
+        if command.key in FLAG_CLEARING_FORMS and not st.seen.get("status_before"):
+            # §10 K: forms I, II and IV clear the limit and EMS bits of "" without a read.
+            # Read them first, so the state cache latches what the device is about to forget
+            # (DESIGN invariant 4).
+            st.seen["status_before"] = await self._query(status_query())
         if is_motion(command):  # right before every send of the move
             value = await self._query(position_query(self._axis(command)))
             st.before_pos = value if isinstance(value, int) else None

@@ -112,6 +112,11 @@ class Line(ABC):
         self.log.add(self.now(), RecordKind.HOST, note="connected")
         return self._host
 
+    def drop_host(self) -> None:
+        """Disconnect the host, as a serial device server does when it restarts."""
+        if self._host is not None:
+            self._host.close()
+
     def detach(self, link: HostLink) -> None:
         """Disconnect ``link`` (``HostLink.close`` calls this)."""
         if self._host is link:

@@ -117,7 +117,8 @@ class _HostProtocol(asyncio.Protocol):
         assert isinstance(transport, asyncio.Transport)
         peer = transport.get_extra_info("peername")
         try:
-            self._link = self._loop.attach(transport.write)
+            # When the line's host end goes (the loop closes, or drop_host), so does the socket.
+            self._link = self._loop.attach(transport.write, on_close=transport.close)
         except LineBusy:
             log.warning("refused a second host connection from %s: the line has a host", peer)
             transport.close()

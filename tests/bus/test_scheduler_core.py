@@ -264,3 +264,18 @@ async def test_a_transaction_of_stops_is_a_stop_whatever_priority_was_given(
     assert bus.texts() == ["A000D", "S", "OL"]
     with pytest.raises(TransactionError):
         await bus.scheduler.stop("1", "OH")
+
+
+async def test_an_error_k_would_clear_is_read_and_published_first(make_bus: MakeBus) -> None:
+    # §10 K: forms I, II and IV clear the limit and EMS bits of "" without reporting them.
+    bus = await make_bus("1")
+    bus.controller("1").set_ems(bus.sim.now(), True)
+    bus.controller("1").set_ems(bus.sim.now(), False)
+    await bus.scheduler.submit("1", parse("K2,FF"))
+    assert bus.texts()[-3:] == ["", "K", "K2,FF"]  # flags first, then the value pre-read
+    statuses = [
+        e.value
+        for e in bus.events
+        if isinstance(e, ReplyObserved) and isinstance(e.value, StatusFlags)
+    ]
+    assert statuses and statuses[-1].emergency_stop  # published, so the state cache latches it
