@@ -7,6 +7,7 @@ reply have crossed the wire plus the controller's turnaround (1 ms by default).
 
 from __future__ import annotations
 
+import asyncio
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -14,7 +15,7 @@ from pathlib import Path
 import pytest
 
 from gateway.protocol.framing import Framing, Series, encode_command
-from gateway.sim.clock import LineLog, RecordKind, SimClock
+from gateway.sim.clock import LineLog, RecordKind, Scheduler, SimClock
 from gateway.sim.loop import LineBusy, SimLoop
 from gateway.sim.serve import SimPort
 
@@ -256,3 +257,22 @@ def test_the_line_log_keeps_the_last_records_and_their_numbers() -> None:
     assert [r.seq for r in kept] == list(range(10 - len(kept), 10))
     assert [r.data for r in log.since(8)] == [b"\x08", b"\x09"]
     assert list(log.since(10)) == []
+
+
+async def test_a_precise_clock_never_runs_an_action_early_and_keeps_the_order() -> None:
+    # SimClock(precise=True) wakes before the due time on purpose (the benchmarks' real
+    # character timing); an action must still never run before its simulated time.
+    clock = SimClock(1.0, precise=True)
+    scheduler = Scheduler(clock)
+    ran: list[tuple[int, float, float]] = []
+    finished = asyncio.Event()
+    start = clock.now()
+    for i, delay in enumerate((0.004, 0.001, 0.0025, 0.002)):
+        due = start + delay
+        scheduler.at(due, lambda i=i, due=due: ran.append((i, due, clock.now())))
+    scheduler.at(start + 0.005, finished.set)
+    scheduler.kick()
+    await asyncio.wait_for(finished.wait(), 5)
+    assert [i for i, _, _ in ran] == [1, 3, 2, 0]  # in time order
+    assert all(at >= due for _, due, at in ran)  # never early
+    scheduler.close()
