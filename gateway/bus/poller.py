@@ -2,24 +2,8 @@
 
 The poller asks; the state cache learns from the scheduler's ``ReplyObserved`` events, so what
 the poller reads is latched exactly like what anyone else reads (DESIGN invariant 4). Its plan,
-per controller, is a set of jobs with due times:
-
-========== ====================================== ===============================================
-job        commands                               when
-========== ====================================== ===============================================
-status     ``""``; moving: ``""`` ``6{mt}``       ``moving_period`` while a motor moves, else
-                                                  ``idle_period``; at once after a move starts
-settle     ``6{mt}`` ``CLM{mt}``                  at once when a move has ended (final position)
-sensors    ``CLM1`` ``CLM2``; moving: ``CL``      ``sensor_period``
-conditions ``90`` ``96`` ``GSS``                  ``condition_period`` (single bits clear nothing,
-                                                  §10 9 ②; never ``9`` form I; a program error
-                                                  GSS clears is latched by the state)
-positions  ``61`` ``62``                          ``position_period`` (both axes)
-identify   ``""`` ``V`` ``94`` ``SUM``,           first contact, back online, link up: read from
-           ``97`` ``61`` ``62``, ``EE`` ``EL``    the device, never restored from cache
-           (``ER`` from ROM 1.19) once stopped
-probe      ``""``                                 offline: backoff ``probe_initial`` .. ``_max``
-========== ====================================== ===============================================
+per controller, is a set of jobs with due times (``gateway.bus.poll_plan``: the jobs, their
+commands and periods); here they run.
 
 The poller has one transaction in flight at a time; of the jobs that are due it runs the most
 urgent (the order of ``Job``), then the one due longest. A moving axis therefore gets its
@@ -34,11 +18,10 @@ import asyncio
 import contextlib
 import logging
 from collections.abc import Callable, Iterable, Sequence
-from dataclasses import dataclass, field
-from enum import IntEnum
 from typing import Protocol
 
 from gateway.bus.events import BusEvent, LinkDown, LinkUp, ReplyObserved
+from gateway.bus.poll_plan import BodyPlan, Job, PollConfig, PollPlan
 from gateway.bus.requests import BusError, LoopDown, Priority, ReplyKind, TransactionResult
 from gateway.bus.scheduler import LoopScheduler
 from gateway.bus.state import StateCache
@@ -72,48 +55,6 @@ class Submitter(Protocol):
         ...
 
 
-class Job(IntEnum):
-    """A kind of poll; the order is the urgency among jobs that are due."""
-
-    STATUS_MOVING = 0
-    SETTLE = 1
-    IDENTIFY = 2
-    PROBE = 3
-    STATUS = 4
-    SENSORS = 5
-    CONDITIONS = 6
-    POSITIONS = 7
-
-
-@dataclass(frozen=True)
-class PollConfig:
-    """The poll plan's periods, in device seconds."""
-
-    moving_period: float = 0.050
-    idle_period: float = 1.0
-    sensor_period: float = 5.0
-    condition_period: float = 10.0
-    position_period: float = 10.0
-    probe_initial: float = 0.5
-    probe_max: float = 30.0
-    #: polls in a row without any answer before a controller is marked offline
-    offline_after: int = 2
-
-
-@dataclass
-class _Body:
-    """The poller's plan for one controller."""
-
-    body: str
-    due: dict[Job, float] = field(default_factory=dict)
-    misses: int = 0
-    online: bool | None = None
-    probe_delay: float = 0.0
-    moving: bool = False  # as the poller's last status read saw it
-    ran_due: float = 0.0  # the due time of the job running (or run last)
-    deferred: list[str] = field(default_factory=list)  # reads refused while moving, to do
-
-
 _COMMANDS: dict[str, Command] = {}
 
 
@@ -141,10 +82,8 @@ class Poller:
         self._scheduler = scheduler
         self._state = state
         self.loop = loop
-        self.config = config or PollConfig()
-        self._scale = time_scale
+        self._plan = PollPlan(bodies, config or PollConfig(), time_scale)
         self._clock = clock
-        self._bodies = {b: _Body(b) for b in bodies}
         self._wake = asyncio.Event()
         self._link_up = asyncio.Event()
         self._link_up.set()
@@ -153,16 +92,22 @@ class Poller:
         self._fragile: tuple[str, asyncio.Future[TransactionResult]] | None = None
         #: polls made, per job (diagnostics)
         self.counts: dict[Job, int] = dict.fromkeys(Job, 0)
-        self._restart()
+        self._plan.restart()
 
     # ------------------------------------------------------------------ control
+
+    @property
+    def config(self) -> PollConfig:
+        """The poll plan's periods."""
+        return self._plan.config
+
+    @config.setter
+    def config(self, config: PollConfig) -> None:
+        self._plan.config = config
 
     def now(self) -> float:
         """Host seconds on the scheduler's clock."""
         return self._clock() if self._clock else asyncio.get_running_loop().time()
-
-    def _host(self, device_seconds: float) -> float:
-        return device_seconds / self._scale
 
     def start(self) -> None:
         """Start polling (in the running event loop)."""
@@ -179,10 +124,7 @@ class Poller:
 
     def poll_now(self, body: str) -> None:
         """Read ``body``'s status at once (a move started or a stop was sent)."""
-        plan = self._bodies.get(body)
-        if plan is not None and plan.online is not False:
-            plan.due.pop(Job.STATUS, None)
-            plan.due[Job.STATUS_MOVING] = -1.0  # before anything else that is due
+        if self._plan.poll_now(body):
             self._wake.set()
 
     def handle(self, event: BusEvent) -> None:
@@ -193,45 +135,26 @@ class Poller:
             if accepted and effect in (Effect.MOTION, Effect.STOP):
                 self.poll_now(event.body)
             if accepted and effect is Effect.MOTION:
-                plan = self._bodies.get(event.body)
+                plan = self._plan.bodies.get(event.body)
                 if plan is not None:
                     plan.moving = True  # until a status read says otherwise
                 if self._fragile is not None and self._fragile[0] == event.body:
                     self._fragile[1].cancel()  # it would be refused: a command error
         elif isinstance(event, LinkUp):
             self._ups += 1
-            self._restart()
+            self._plan.restart()
             self._link_up.set()
             self._wake.set()
         elif isinstance(event, LinkDown):
             self._link_up.clear()
 
-    def _restart(self) -> None:
-        """Read every controller again from the device (start, link up: issue 4)."""
-        for plan in self._bodies.values():
-            plan.due = {Job.IDENTIFY: 0.0}
-            plan.misses, plan.online, plan.moving, plan.deferred = 0, None, False, []
-
-    # ------------------------------------------------------------------ the plan
-
-    def _pick(self, now: float) -> tuple[_Body, Job] | float:
-        """The most urgent due job, or the host time the next one is due."""
-        best: tuple[Job, float, str] | None = None
-        earliest = float("inf")
-        for plan in self._bodies.values():
-            for job, due in plan.due.items():
-                if due <= now and (best is None or (job, due, plan.body) < best):
-                    best = (job, due, plan.body)
-                earliest = min(earliest, due)
-        if best is None:
-            return earliest
-        return self._bodies[best[2]], best[0]
+    # ------------------------------------------------------------------ the jobs
 
     async def _run(self) -> None:
         while True:
             await self._link_up.wait()
             now = self.now()
-            picked = self._pick(now)
+            picked = self._plan.pick(now)
             if isinstance(picked, float):
                 self._wake.clear()
                 wait = None if picked == float("inf") else max(0.0, picked - now)
@@ -249,13 +172,13 @@ class Poller:
                 plan.due.setdefault(job, 0.0)
             except BusError as exc:  # a deadline passed, a refusal: try again next period
                 log.info("loop %s: poll %s of %s failed: %s", self.loop, job.name, plan.body, exc)
-                self._schedule(plan, job, self.now())
+                self._plan.schedule(plan, job, self.now())
             except Exception:  # a bug must not stop the polling of the whole loop
                 log.exception("loop %s: poll %s of %s failed", self.loop, job.name, plan.body)
-                self._schedule(plan, job, self.now())
+                self._plan.schedule(plan, job, self.now())
             self._state.refresh(self.now())
 
-    async def _run_job(self, plan: _Body, job: Job) -> None:
+    async def _run_job(self, plan: BodyPlan, job: Job) -> None:
         self.counts[job] += 1
         ctl = self._state.controller(self.loop, plan.body)
         motor = ctl.selected_motor or ctl.last_moved or 1
@@ -278,9 +201,9 @@ class Poller:
             await self._poll(plan, "90", "96", "GSS")
         elif job is Job.POSITIONS:
             await self._poll(plan, "61", "62")
-        self._schedule(plan, job, self.now())
+        self._plan.schedule(plan, job, self.now())
 
-    async def _identify(self, plan: _Body) -> None:
+    async def _identify(self, plan: BodyPlan) -> None:
         """Version, mode, framing and positions, read from the device (never from cache).
 
         The mode is read with ``94`` (§10 9 form II: clears nothing, allowed while moving)
@@ -299,7 +222,7 @@ class Poller:
         if await self._poll(plan, "97", "61", "62") and not plan.moving:
             await self._poll(plan, *plan.deferred)
 
-    async def _poll(self, plan: _Body, *texts: str) -> TransactionResult | None:
+    async def _poll(self, plan: BodyPlan, *texts: str) -> TransactionResult | None:
         """One poll transaction; None when nobody answered or a move started meanwhile.
 
         A poll with a command that is refused while moving is withdrawn from the queue when
@@ -329,7 +252,7 @@ class Poller:
             plan.deferred = []
         return result
 
-    def _answered(self, plan: _Body, result: TransactionResult) -> bool:
+    def _answered(self, plan: BodyPlan, result: TransactionResult) -> bool:
         """Count a poll nobody answered; mark the controller offline or online."""
         silent = all(r.kind in (ReplyKind.TIMEOUT, ReplyKind.SKIPPED) for r in result.results)
         now = self.now()
@@ -338,7 +261,7 @@ class Poller:
             if plan.misses >= self.config.offline_after and plan.online is not False:
                 plan.online, plan.moving = False, False
                 plan.probe_delay = self.config.probe_initial
-                plan.due = {Job.PROBE: now + self._host(plan.probe_delay)}
+                plan.due = {Job.PROBE: now + self._plan.host(plan.probe_delay)}
                 self._state.set_online(self.loop, plan.body, False, now)
             return False
         plan.misses = 0
@@ -351,52 +274,13 @@ class Poller:
         plan.online = True
         return True
 
-    def _status(self, plan: _Body, result: TransactionResult) -> None:
+    def _status(self, plan: BodyPlan, result: TransactionResult) -> None:
         flags = result.results[0].value
         if not isinstance(flags, StatusFlags):
             return
         if plan.moving and not flags.moving:  # the move ended: its final position now
             plan.due[Job.SETTLE] = self.now()
         plan.moving = flags.moving
-
-    def _next(self, due: float, period: float, now: float) -> float:
-        """One period after the last due time, so a poll that started late (the line was
-        busy) does not slow the rate; never more than a period in the past (no bursts)."""
-        step = self._host(period)
-        if due < 0:  # a forced poll: the period starts now
-            return now + step
-        return due + step if due + step >= now - step else now
-
-    def _schedule(self, plan: _Body, job: Job, now: float) -> None:
-        """Set the next due time of ``job`` (and start the periodic jobs of a new contact)."""
-        c = self.config
-        if plan.online is False:
-            if job is Job.PROBE:
-                plan.probe_delay = min(c.probe_max, max(c.probe_initial, plan.probe_delay * 2))
-                plan.due[Job.PROBE] = now + self._host(plan.probe_delay)
-            return
-        if job is Job.IDENTIFY:
-            if plan.online:  # identified: start the periodic jobs
-                plan.due.update({Job.STATUS: now, Job.SENSORS: now, Job.CONDITIONS: now})
-                plan.due[Job.POSITIONS] = now + self._host(c.position_period)
-            else:
-                plan.due[Job.IDENTIFY] = now + self._host(c.idle_period)
-            return
-        periods = {
-            Job.SENSORS: c.sensor_period,
-            Job.CONDITIONS: c.condition_period,
-            Job.POSITIONS: c.position_period,
-        }
-        if job in (Job.STATUS, Job.STATUS_MOVING, Job.PROBE):
-            plan.due.pop(Job.STATUS, None)
-            plan.due.pop(Job.STATUS_MOVING, None)
-            nxt = Job.STATUS_MOVING if plan.moving else Job.STATUS
-            period = c.moving_period if plan.moving else c.idle_period
-            # The rate carries on only within one kind; a move starting or ending restarts it.
-            due = plan.ran_due if nxt is job else -1.0
-            plan.due[nxt] = self._next(due, period, now)
-        elif job in periods:
-            plan.due[job] = self._next(plan.ran_due, periods[job], now)
 
 
 def attach(

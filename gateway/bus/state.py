@@ -8,28 +8,28 @@ rules shape it:
   alone; what they report is **latched** here until a client acknowledges it, so no error is
   lost because the poller or another client read it first (§10 "" 注意点, §10 9 ①, §10 GSS).
 * ``""`` and ``9`` describe the controller, not a motor; which axis shows a latched error is
-  decided by ``_attribute`` (docs/manual-notes.md, "Latched errors and axes").
+  decided in ``latches`` (docs/manual-notes.md, "Latched errors and axes").
 * Every change gets the next sequence number and a timestamp, is kept in a bounded history
   and is published to subscribers; a subscriber that fell behind asks for the changes since
   its last number, or takes a fresh snapshot when the history no longer reaches back.
 
 Times are whatever the caller stamps events with (the scheduler's clock); nothing here reads
 a clock of its own.
+
+Here: the cache. Its records are in ``state_types``, numbering, history and subscriptions
+in ``changes`` (``ChangeLog``), what one reply tells in ``readings``, the latch rules in
+``latches``.
 """
 
 from __future__ import annotations
 
-import asyncio
-import contextlib
 import dataclasses
-import logging
-from collections import deque
-from collections.abc import Callable, Iterable, Mapping
-from dataclasses import dataclass, field, replace
-from enum import StrEnum
+from collections.abc import Iterable, Mapping
+from dataclasses import replace
 from types import MappingProxyType
 from typing import Any
 
+from gateway.bus.changes import ChangeLog, FellBehind, Subscription
 from gateway.bus.events import (
     BusEvent,
     FramingChanged,
@@ -39,17 +39,22 @@ from gateway.bus.events import (
     SelectionChanged,
     TransactionDone,
 )
-from gateway.protocol.framing import POWER_ON, Framing
+from gateway.bus.latches import error_motor, latch_errors, unlatch
+from gateway.bus.readings import apply_reply
+from gateway.bus.state_types import (
+    AXIS_ERRORS,
+    MOTORS,
+    AxisState,
+    Change,
+    ControllerState,
+    ErrorKind,
+    Latch,
+    LoopState,
+    Snapshot,
+)
+from gateway.protocol.framing import Framing
 from gateway.protocol.models import Command
 from gateway.protocol.replies import ReplyValue
-from gateway.protocol.reply_values import (
-    ConditionFlags,
-    ProgramState,
-    SensorBits,
-    StatusFlags,
-    Version,
-)
-from gateway.protocol.spec import Effect
 
 __all__ = [
     "MOTORS",
@@ -65,192 +70,21 @@ __all__ = [
     "Subscription",
 ]
 
-log = logging.getLogger("gateway.bus")
 
-MOTORS = (1, 2)
-
-
-class ErrorKind(StrEnum):
-    """An error a read reports once and clears on the device (§10 "", §10 9, §10 GSS)."""
-
-    LIMIT = "limit_error"  # "" bit 1, 9 bit 1
-    EMERGENCY = "emergency_stop"  # "" bit 2, 9 bit 2
-    COMMAND = "command_error"  # "" bit 3, 9 bit 3
-    COMMUNICATION = "communication_error"  # 9 bit 0 only: noise or receive overflow
-    PROGRAM = "program_error"  # GSS 'E': a user program ended by a command error
-
-
-#: Errors shown on the axes as well as on the controller.
-AXIS_ERRORS = (ErrorKind.LIMIT, ErrorKind.EMERGENCY, ErrorKind.COMMAND)
-_STATUS_KINDS = {"limit_error": ErrorKind.LIMIT, "emergency_stop": ErrorKind.EMERGENCY}
-_STATUS_KINDS["command_error"] = ErrorKind.COMMAND
-
-
-@dataclass(frozen=True)
-class Latch:
-    """One latched error of a controller, held until acknowledged."""
-
-    kind: ErrorKind
-    #: the motors whose axis still shows it (empty for controller-only kinds)
-    axes: frozenset[int]
-    first: float  # when a read first reported it
-    last: float  # when a read last reported it
-    count: int  # how many reads reported it since it was latched
-    source: str  # the command (form key) whose reply reported it last, e.g. '""'
-
-
-@dataclass(frozen=True)
-class AxisState:
-    """One motor of one controller as the gateway last saw it."""
-
-    motor: int
-    position: int | None = None  # as the controller reports it (EP0 unsigned, EP1 signed)
-    moving: bool = False
-    sensors: SensorBits | None = None
-    selected: bool = False  # F selects this motor (§10 F)
-    step_out: bool = False  # 9 bit 6: held by the device until homing or RD (§10 9 ⑤)
-    limit_error: bool = False  # latched, until acknowledged
-    emergency: bool = False  # latched
-    command_error: bool = False  # latched
-    updated: float | None = None  # last fresh status or position
-    stale: bool = True  # no fresh data for ``StateCache.stale_after`` seconds
-
-
-@dataclass(frozen=True)
-class ControllerState:
-    """One controller: identity, framing, raw flags, latched errors and its two axes."""
-
-    body: str
-    online: bool | None = None  # None: not probed yet
-    version: Version | None = None
-    mode: int | None = None  # E (§10 E), also 9 bits 5,4
-    framing: Framing | None = None
-    status: StatusFlags | None = None  # the last "" reply as read
-    condition: ConditionFlags | None = None  # the last 9 (form I) reply as read
-    condition_bits: Mapping[int, int] = field(default_factory=lambda: MappingProxyType({}))
-    program: ProgramState | None = None
-    moving: bool = False  # "" bit 0
-    selected_motor: int | None = None
-    #: False while the selection is only inferred from a '>' (which does not mean the command
-    #: was valid, §9-2); True once read back with 9, 97 or F
-    selection_confirmed: bool = False
-    last_moved: int | None = None  # the motor of the latest move the gateway knows of
-    latched: Mapping[ErrorKind, Latch] = field(default_factory=lambda: MappingProxyType({}))
-    updated: float | None = None
-
-
-@dataclass(frozen=True)
-class LoopState:
-    """One serial loop: link state, queue depth and the scheduler's counters."""
-
-    name: str
-    up: bool = False
-    cause: str | None = None  # why it went down
-    queue_depth: int = 0
-    counters: Mapping[str, float] = field(default_factory=lambda: MappingProxyType({}))
-    updated: float | None = None
-
-
-@dataclass(frozen=True)
-class Change:
-    """What changed in one loop, controller or axis: the new values of the fields that moved."""
-
-    seq: int
-    time: float
-    loop: str
-    body: str | None  # None: the loop itself
-    motor: int | None  # None: the controller (or the loop)
-    values: Mapping[str, Any]
-
-
-@dataclass(frozen=True)
-class Snapshot:
-    """Everything at once, as of change ``seq``."""
-
-    seq: int
-    loops: Mapping[str, LoopState]
-    controllers: Mapping[tuple[str, str], ControllerState]
-    axes: Mapping[tuple[str, str, int], AxisState]
-
-
-class FellBehind(Exception):
-    """A subscription dropped changes because its queue was full; call ``resync``."""
-
-
-class Subscription:
-    """The changes of a ``StateCache`` as an asyncio queue (``async for change in sub``).
-
-    A reader that is too slow does not slow the gateway: once the queue is full further
-    changes are dropped, and after the queued ones ``get`` raises ``FellBehind``; ``resync``
-    then returns what was missed (the changes, or a snapshot when the history no longer
-    reaches back) and delivery goes on from there.
-    """
-
-    def __init__(self, cache: StateCache, maxsize: int) -> None:
-        self._cache = cache
-        self._queue: asyncio.Queue[Change] = asyncio.Queue(maxsize)
-        self.last_seq = cache.seq  # the last change delivered (or caught up with)
-        self.behind = False
-
-    def _put(self, change: Change) -> None:
-        if self.behind:
-            return
-        try:
-            self._queue.put_nowait(change)
-        except asyncio.QueueFull:
-            self.behind = True
-
-    async def get(self) -> Change:
-        """The next change; ``FellBehind`` once the queue overflowed and is drained."""
-        if self.behind and self._queue.empty():
-            raise FellBehind(f"changes after {self.last_seq} were dropped")
-        change = await self._queue.get()
-        self.last_seq = change.seq
-        return change
-
-    def resync(self) -> list[Change] | Snapshot:
-        """What was missed since ``last_seq``; delivery resumes after it."""
-        missed: list[Change] | Snapshot | None = self._cache.changes_since(self.last_seq)
-        if missed is None:
-            missed = self._cache.snapshot()
-        while not self._queue.empty():
-            self._queue.get_nowait()
-        self.behind = False
-        self.last_seq = self._cache.seq
-        return missed
-
-    def close(self) -> None:
-        """Stop receiving changes."""
-        self._cache._subscriptions.discard(self)
-
-    def __aiter__(self) -> Subscription:
-        return self
-
-    async def __anext__(self) -> Change:
-        return await self.get()
-
-
-class StateCache:
+class StateCache(ChangeLog):
     """The latched state of every loop; fed with replies, read by snapshot, change or stream."""
 
     def __init__(self, *, history: int = 10_000, stale_after: float = 3.0) -> None:
+        super().__init__(history)
         self.stale_after = stale_after
-        self._seq = 0
-        self._history: deque[Change] = deque(maxlen=history)
         self._loops: dict[str, LoopState] = {}
         self._ctls: dict[tuple[str, str], ControllerState] = {}
         self._axes: dict[tuple[str, str, int], AxisState] = {}
-        self._subscriptions: set[Subscription] = set()
-        self._callbacks: list[Callable[[Change], None]] = []
         self._counters_published: dict[str, float] = {}
         self.counters_period = 1.0
 
     # ------------------------------------------------------------------ reading
-
-    @property
-    def seq(self) -> int:
-        """The number of the latest change (0: none yet)."""
-        return self._seq
+    # (seq, changes_since, subscribe and listen: see ChangeLog)
 
     def loop(self, name: str) -> LoopState:
         """One loop (a blank one if nothing was heard of it)."""
@@ -277,40 +111,7 @@ class StateCache:
             MappingProxyType(dict(self._axes)),
         )
 
-    def changes_since(self, seq: int) -> list[Change] | None:
-        """The changes after ``seq``; None when the history no longer reaches back (resync
-        with ``snapshot``)."""
-        if seq >= self._seq:
-            return []
-        oldest = self._history[0].seq if self._history else self._seq + 1
-        if seq + 1 < oldest:
-            return None
-        return [c for c in self._history if c.seq > seq]
-
-    def subscribe(self, maxsize: int = 1000) -> Subscription:
-        """A queue of every change from now on (see ``Subscription`` for falling behind)."""
-        sub = Subscription(self, maxsize)
-        self._subscriptions.add(sub)
-        return sub
-
-    def listen(self, callback: Callable[[Change], None]) -> Callable[[], None]:
-        """Call ``callback`` with every change (synchronously); returns the unsubscribe."""
-        self._callbacks.append(callback)
-        return lambda: self._callbacks.remove(callback) if callback in self._callbacks else None
-
     # ------------------------------------------------------------------ writing
-
-    def _emit(self, now: float, loop: str, body: str | None, motor: int | None, **v: Any) -> None:
-        self._seq += 1
-        change = Change(self._seq, now, loop, body, motor, MappingProxyType(v))
-        self._history.append(change)
-        for sub in list(self._subscriptions):
-            sub._put(change)
-        for callback in list(self._callbacks):
-            try:
-                callback(change)
-            except Exception:  # one bad listener must not stop the others
-                log.exception("state listener %r failed", callback)
 
     def _set(
         self,
@@ -350,7 +151,7 @@ class StateCache:
         moving_motor = ctl.selected_motor if ctl.moving else None
         for m in MOTORS:
             shows = {k: m in ctl.latched[k].axes for k in AXIS_ERRORS if k in ctl.latched}
-            step_out = bool(ctl.condition_bits.get(6)) and _attribute(ctl) in (None, m)
+            step_out = bool(ctl.condition_bits.get(6)) and error_motor(ctl) in (None, m)
             self._set_axis(
                 now,
                 loop,
@@ -368,16 +169,7 @@ class StateCache:
         self, now: float, loop: str, body: str, kinds: Iterable[ErrorKind], source: str
     ) -> None:
         ctl = self.controller(loop, body)
-        latched = dict(ctl.latched)
-        for kind in kinds:
-            axes = _axes_for(kind, ctl)
-            old = latched.get(kind)
-            if old is None:
-                latched[kind] = Latch(kind, axes, now, now, 1, source)
-            else:
-                latched[kind] = replace(
-                    old, axes=old.axes | axes, last=now, count=old.count + 1, source=source
-                )
+        latched = latch_errors(ctl, kinds, now, source)
         if latched != ctl.latched:
             self._set_ctl(now, loop, body, latched=MappingProxyType(latched))
 
@@ -397,20 +189,7 @@ class StateCache:
         Returns the kinds that are no longer latched.
         """
         ctl = self.controller(loop, body)
-        wanted = set(ErrorKind) if kinds is None else set(kinds)
-        latched = dict(ctl.latched)
-        cleared: list[ErrorKind] = []
-        for kind in [k for k in latched if k in wanted]:
-            if motor is None:
-                cleared.append(kind)
-                del latched[kind]
-            elif motor in latched[kind].axes:
-                left = latched[kind].axes - {motor}
-                if left:
-                    latched[kind] = replace(latched[kind], axes=left)
-                else:
-                    cleared.append(kind)
-                    del latched[kind]
+        latched, cleared = unlatch(ctl.latched, motor=motor, kinds=kinds)
         if latched != ctl.latched:
             self._set_ctl(now, loop, body, latched=MappingProxyType(latched))
         return cleared
@@ -429,7 +208,7 @@ class StateCache:
         """One decoded reply of ``body`` to ``command``: ``value`` is the typed data, None for
         '>' (or '>@' with ``rejected``); ``motor`` the scheduler's word on the motor a
         command without a suffix acted on."""
-        _Reading(self, loop, body, command, time, motor).apply(value, rejected)
+        apply_reply(self, loop, body, command, value, time, motor=motor, rejected=rejected)
 
     def handle(self, event: BusEvent, *, queue_depth: int | None = None) -> None:
         """Take one event of the loop scheduler (subscribe this to its ``EventBus``);
@@ -500,143 +279,3 @@ class StateCache:
             old = axis.updated is None or now - axis.updated > self.stale_after
             if old and not axis.stale:
                 self._set_axis(now, loop, body, m, stale=True)
-
-
-def _attribute(ctl: ControllerState) -> int | None:
-    """The motor a controller-wide limit or step-out error belongs to; None = unknown.
-
-    While a motor moves it is the selected one (F cannot change during a move, §10 F); after
-    a move the one that moved last; else the selected motor.
-    """
-    if ctl.moving and ctl.selected_motor is not None:
-        return ctl.selected_motor
-    return ctl.last_moved or ctl.selected_motor
-
-
-def _axes_for(kind: ErrorKind, ctl: ControllerState) -> frozenset[int]:
-    if kind is ErrorKind.LIMIT:
-        motor = _attribute(ctl)
-        return frozenset(MOTORS) if motor is None else frozenset({motor})
-    if kind in AXIS_ERRORS:  # EMS is common to both motors (§10 EA); a command error names none
-        return frozenset(MOTORS)
-    return frozenset()
-
-
-class _Reading:
-    """What one reply tells: dispatch on the command's reply format and form."""
-
-    def __init__(
-        self,
-        cache: StateCache,
-        loop: str,
-        body: str,
-        command: Command,
-        now: float,
-        hint: int | None,
-    ) -> None:
-        self.cache, self.loop, self.body, self.command, self.now = cache, loop, body, command, now
-        self.hint = hint  # the scheduler's motor for a command without a suffix
-
-    def motor(self, ctl: ControllerState) -> int | None:
-        """The motor the command acted on: its suffix, else the selection (§10 F)."""
-        return self.command.motor or self.hint or ctl.selected_motor
-
-    def ctl(self, **values: Any) -> None:
-        self.cache._set_ctl(self.now, self.loop, self.body, **values)
-
-    def axis(self, motor: int, **values: Any) -> None:
-        self.cache._set_axis(self.now, self.loop, self.body, motor, **values)
-
-    def latch(self, kinds: Iterable[ErrorKind]) -> None:
-        self.cache._latch(self.now, self.loop, self.body, kinds, self.command.key)
-
-    def apply(self, value: ReplyValue | None, rejected: bool) -> None:
-        ctl = self.cache.controller(self.loop, self.body)
-        self.ctl(online=True, updated=self.now)
-        if value is None and not rejected:  # '>' (a '>@' changed nothing, §10 ER)
-            self.accepted(ctl)
-        elif isinstance(value, StatusFlags):
-            self.status(ctl, value)
-        elif isinstance(value, ConditionFlags):
-            self.condition(ctl, value)
-        elif isinstance(value, ProgramState):
-            self.ctl(program=value)
-            if value is ProgramState.ERROR:  # GSS: reading E clears it to 0 (§10 GSS)
-                self.latch([ErrorKind.PROGRAM])
-        elif isinstance(value, Version):
-            self.ctl(version=value)
-        elif isinstance(value, SensorBits):
-            motor = self.motor(ctl)  # CL: the selected (or moving) motor
-            if motor is not None:
-                self.axis(motor, sensors=value)
-        elif isinstance(value, int) and not isinstance(value, bool):
-            self.number(ctl, value)
-
-    def accepted(self, ctl: ControllerState) -> None:
-        form, key = self.command.form, self.command.key
-        if key.startswith("F{") and not ctl.moving:  # F cannot be used while moving (§10 F)
-            self.ctl(selected_motor=self.command.motor, selection_confirmed=False)
-        elif form.effect is Effect.MOTION and not ctl.moving:
-            # A suffix selects the motor and the selection stays (§9-1, §10 F).
-            moved = self.motor(ctl)
-            self.ctl(selected_motor=moved, last_moved=moved, selection_confirmed=False)
-        elif key[:-1] in ("EE", "EL", "ER", "SUM") and key[-1:] in "01":
-            self.framing(key[:-1], key[-1] == "1")
-
-    def framing(self, switch: str, on: bool) -> None:
-        names = {"EE": "echo", "EL": "cr_after_ack", "ER": "error_mark", "SUM": "checksum"}
-        current = self.cache.controller(self.loop, self.body).framing or POWER_ON
-        with contextlib.suppress(ValueError):  # EE1 with SUM1: refused (§10 EE, SUM)
-            self.ctl(framing=replace(current, **{names[switch]: on}))
-
-    def status(self, ctl: ControllerState, flags: StatusFlags) -> None:
-        # "" clears bits 1-3 after the reply (§10 "" 注意点): latch them now or lose them.
-        if flags.moving and not ctl.moving and ctl.selected_motor is not None:
-            self.ctl(last_moved=ctl.selected_motor)
-        self.ctl(status=flags, moving=flags.moving)
-        self.latch(k for name, k in _STATUS_KINDS.items() if getattr(flags, name))
-        for m in MOTORS:
-            self.axis(m, updated=self.now, stale=False)
-
-    def condition(self, ctl: ControllerState, flags: ConditionFlags) -> None:
-        # 9 form I clears bits 0-3 after the reply (§10 9 ①); bit 6 stays (§10 9 ⑤).
-        bits = dict(ctl.condition_bits)
-        bits.update({0: 0, 1: 0, 2: 0, 3: 0, 6: int(flags.step_out)})
-        bits.update({4: flags.mode, 5: flags.mode, 7: flags.selected_motor - 1})
-        self.ctl(
-            condition=flags,
-            mode=flags.mode,
-            selected_motor=flags.selected_motor,
-            selection_confirmed=True,
-            condition_bits=MappingProxyType(bits),
-        )
-        kinds = [k for name, k in _STATUS_KINDS.items() if getattr(flags, name)]
-        self.latch([ErrorKind.COMMUNICATION] * flags.communication_error + kinds)
-
-    def number(self, ctl: ControllerState, value: int) -> None:
-        key = self.command.key
-        if key in ("6", "6{mt}"):
-            motor = self.motor(ctl)
-            if motor is not None:
-                self.axis(motor, position=value, updated=self.now, stale=False)
-        elif key == "9{bit}":
-            self.condition_bit(ctl, int(self.command.params()["bit"]), value)
-        elif key == "E":
-            self.ctl(mode=value)
-        elif key == "F":
-            self.ctl(selected_motor=value, selection_confirmed=True)
-        elif key in ("EE", "EL", "ER", "SUM"):
-            self.framing(key, value == 1)
-
-    def condition_bit(self, ctl: ControllerState, bit: int, value: int) -> None:
-        # 9{bit} clears nothing (§10 9 ②): the device holds a set bit until a 9 form I read,
-        # so only a 0 -> 1 change is a new communication error. Bits 1-3 repeat what the
-        # status flags (polled with "") report, in their own store: not latched again.
-        was = ctl.condition_bits.get(bit)
-        self.ctl(condition_bits=MappingProxyType({**ctl.condition_bits, bit: value}))
-        if bit == 0 and value and was != 1:
-            self.latch([ErrorKind.COMMUNICATION])
-        elif bit in (4, 5):
-            self.ctl(mode=value)
-        elif bit == 7:
-            self.ctl(selected_motor=value + 1, selection_confirmed=True)

@@ -75,8 +75,6 @@ async def test_a_lost_reply_to_dw_is_decided_by_its_message(make_bus: MakeBus) -
 
 async def test_unsolicited_messages_never_satisfy_a_pending_reply(make_bus: MakeBus) -> None:
     bus = await make_bus("12")
-    # §10 T: T{time} answers '>' and sends '$1T' at time-up, whenever that is.
-    await bus.scheduler.submit("1", parse("T1"))
     values = []
     timer_seen = asyncio.Event()
 
@@ -84,7 +82,10 @@ async def test_unsolicited_messages_never_satisfy_a_pending_reply(make_bus: Make
         if isinstance(event, UnsolicitedMessage) and event.kind is UnsolicitedKind.TIMER_UP:
             timer_seen.set()
 
+    # Watch first: at this time scale the time-up may come before the caller runs again.
     bus.scheduler.events.subscribe(watch)
+    # §10 T: T{time} answers '>' and sends '$1T' at time-up, whenever that is.
+    await bus.scheduler.submit("1", parse("T1"))
     while not timer_seen.is_set():
         result = await bus.scheduler.submit("2", parse("OH"))
         values.append(result.value)

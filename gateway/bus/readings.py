@@ -1,0 +1,171 @@
+"""What one decoded reply tells the state cache: dispatch on the command's reply format.
+
+``apply_reply`` is the reply half of ``StateCache.observe``; it writes through the cache's
+own setters, so every field it moves is numbered and published like any other change.
+Reads that clear device flags (``""``, ``9`` form I, ``GSS``) latch what they report here,
+or it would be lost (§10 "" 注意点, §10 9 ①, §10 GSS).
+"""
+
+from __future__ import annotations
+
+import contextlib
+from collections.abc import Iterable
+from dataclasses import replace
+from types import MappingProxyType
+from typing import TYPE_CHECKING, Any
+
+from gateway.bus.state_types import MOTORS, ControllerState, ErrorKind
+from gateway.protocol.framing import POWER_ON
+from gateway.protocol.models import Command
+from gateway.protocol.replies import ReplyValue
+from gateway.protocol.reply_values import (
+    ConditionFlags,
+    ProgramState,
+    SensorBits,
+    StatusFlags,
+    Version,
+)
+from gateway.protocol.spec import Effect
+
+if TYPE_CHECKING:
+    from gateway.bus.state import StateCache
+
+__all__ = ["apply_reply"]
+
+_STATUS_KINDS = {"limit_error": ErrorKind.LIMIT, "emergency_stop": ErrorKind.EMERGENCY}
+_STATUS_KINDS["command_error"] = ErrorKind.COMMAND
+
+
+def apply_reply(
+    cache: StateCache,
+    loop: str,
+    body: str,
+    command: Command,
+    value: ReplyValue | None,
+    now: float,
+    *,
+    motor: int | None,
+    rejected: bool,
+) -> None:
+    """Store what the reply ``value`` of ``body`` to ``command`` tells (see ``observe``)."""
+    _Reading(cache, loop, body, command, now, motor).apply(value, rejected)
+
+
+class _Reading:
+    """What one reply tells: dispatch on the command's reply format and form."""
+
+    def __init__(
+        self,
+        cache: StateCache,
+        loop: str,
+        body: str,
+        command: Command,
+        now: float,
+        hint: int | None,
+    ) -> None:
+        self.cache, self.loop, self.body, self.command, self.now = cache, loop, body, command, now
+        self.hint = hint  # the scheduler's motor for a command without a suffix
+
+    def motor(self, ctl: ControllerState) -> int | None:
+        """The motor the command acted on: its suffix, else the selection (§10 F)."""
+        return self.command.motor or self.hint or ctl.selected_motor
+
+    def ctl(self, **values: Any) -> None:
+        self.cache._set_ctl(self.now, self.loop, self.body, **values)
+
+    def axis(self, motor: int, **values: Any) -> None:
+        self.cache._set_axis(self.now, self.loop, self.body, motor, **values)
+
+    def latch(self, kinds: Iterable[ErrorKind]) -> None:
+        self.cache._latch(self.now, self.loop, self.body, kinds, self.command.key)
+
+    def apply(self, value: ReplyValue | None, rejected: bool) -> None:
+        ctl = self.cache.controller(self.loop, self.body)
+        self.ctl(online=True, updated=self.now)
+        if value is None and not rejected:  # '>' (a '>@' changed nothing, §10 ER)
+            self.accepted(ctl)
+        elif isinstance(value, StatusFlags):
+            self.status(ctl, value)
+        elif isinstance(value, ConditionFlags):
+            self.condition(ctl, value)
+        elif isinstance(value, ProgramState):
+            self.ctl(program=value)
+            if value is ProgramState.ERROR:  # GSS: reading E clears it to 0 (§10 GSS)
+                self.latch([ErrorKind.PROGRAM])
+        elif isinstance(value, Version):
+            self.ctl(version=value)
+        elif isinstance(value, SensorBits):
+            motor = self.motor(ctl)  # CL: the selected (or moving) motor
+            if motor is not None:
+                self.axis(motor, sensors=value)
+        elif isinstance(value, int) and not isinstance(value, bool):
+            self.number(ctl, value)
+
+    def accepted(self, ctl: ControllerState) -> None:
+        form, key = self.command.form, self.command.key
+        if key.startswith("F{") and not ctl.moving:  # F cannot be used while moving (§10 F)
+            self.ctl(selected_motor=self.command.motor, selection_confirmed=False)
+        elif form.effect is Effect.MOTION and not ctl.moving:
+            # A suffix selects the motor and the selection stays (§9-1, §10 F).
+            moved = self.motor(ctl)
+            self.ctl(selected_motor=moved, last_moved=moved, selection_confirmed=False)
+        elif key[:-1] in ("EE", "EL", "ER", "SUM") and key[-1:] in "01":
+            self.framing(key[:-1], key[-1] == "1")
+
+    def framing(self, switch: str, on: bool) -> None:
+        names = {"EE": "echo", "EL": "cr_after_ack", "ER": "error_mark", "SUM": "checksum"}
+        current = self.cache.controller(self.loop, self.body).framing or POWER_ON
+        with contextlib.suppress(ValueError):  # EE1 with SUM1: refused (§10 EE, SUM)
+            self.ctl(framing=replace(current, **{names[switch]: on}))
+
+    def status(self, ctl: ControllerState, flags: StatusFlags) -> None:
+        # "" clears bits 1-3 after the reply (§10 "" 注意点): latch them now or lose them.
+        if flags.moving and not ctl.moving and ctl.selected_motor is not None:
+            self.ctl(last_moved=ctl.selected_motor)
+        self.ctl(status=flags, moving=flags.moving)
+        self.latch(k for name, k in _STATUS_KINDS.items() if getattr(flags, name))
+        for m in MOTORS:
+            self.axis(m, updated=self.now, stale=False)
+
+    def condition(self, ctl: ControllerState, flags: ConditionFlags) -> None:
+        # 9 form I clears bits 0-3 after the reply (§10 9 ①); bit 6 stays (§10 9 ⑤).
+        bits = dict(ctl.condition_bits)
+        bits.update({0: 0, 1: 0, 2: 0, 3: 0, 6: int(flags.step_out)})
+        bits.update({4: flags.mode, 5: flags.mode, 7: flags.selected_motor - 1})
+        self.ctl(
+            condition=flags,
+            mode=flags.mode,
+            selected_motor=flags.selected_motor,
+            selection_confirmed=True,
+            condition_bits=MappingProxyType(bits),
+        )
+        kinds = [k for name, k in _STATUS_KINDS.items() if getattr(flags, name)]
+        self.latch([ErrorKind.COMMUNICATION] * flags.communication_error + kinds)
+
+    def number(self, ctl: ControllerState, value: int) -> None:
+        key = self.command.key
+        if key in ("6", "6{mt}"):
+            motor = self.motor(ctl)
+            if motor is not None:
+                self.axis(motor, position=value, updated=self.now, stale=False)
+        elif key == "9{bit}":
+            self.condition_bit(ctl, int(self.command.params()["bit"]), value)
+        elif key == "E":
+            self.ctl(mode=value)
+        elif key == "F":
+            self.ctl(selected_motor=value, selection_confirmed=True)
+        elif key in ("EE", "EL", "ER", "SUM"):
+            self.framing(key, value == 1)
+
+    def condition_bit(self, ctl: ControllerState, bit: int, value: int) -> None:
+        # 9{bit} clears nothing (§10 9 ②): the device holds a set bit until a 9 form I read,
+        # so only a 0 -> 1 change is a new communication error. Bits 1-3 repeat what the
+        # status flags (polled with "") report, in their own store: not latched again.
+        was = ctl.condition_bits.get(bit)
+        self.ctl(condition_bits=MappingProxyType({**ctl.condition_bits, bit: value}))
+        if bit == 0 and value and was != 1:
+            self.latch([ErrorKind.COMMUNICATION])
+        elif bit in (4, 5):
+            self.ctl(mode=value)
+        elif bit == 7:
+            self.ctl(selected_motor=value + 1, selection_confirmed=True)
