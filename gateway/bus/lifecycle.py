@@ -133,6 +133,9 @@ class LoopLifecycle:
                         await self._serve()
                     except LinkLost as exc:
                         await self._go_down(exc.cause)
+                    except Exception as exc:  # a defect: fail the callers, reopen, go on
+                        log.exception("loop %s: the scheduler failed", self.name)
+                        await self._go_down(f"internal error: {exc!r}")
                 self._first_attempt.set()
                 # Backoff after a failed open and after a loss alike; it is reset by a
                 # transaction that heard the line, so a dead line is not reopened in a spin.
@@ -144,7 +147,12 @@ class LoopLifecycle:
     async def _connect(self) -> bool:
         try:
             await self.transport.open()
-        except (TransportClosed, OSError) as exc:
+        except Exception as exc:
+            # TransportClosed and OSError as documented, and whatever else a serial library
+            # raises (ValueError for a rate it refuses...): a failed open, never the end of
+            # this task, or callers (stops have no deadline) would wait forever.
+            if not isinstance(exc, TransportClosed | OSError):
+                log.error("loop %s: unexpected error opening %s", self.name, self.transport.url)
             if self.state is not LinkState.DOWN:
                 await self._go_down(f"cannot open {self.transport.url}: {exc}")
             else:

@@ -2,9 +2,11 @@
 
 * Lower ``Priority`` first; within one priority, first come first served (issue 4).
 * A caller that goes away (its awaiting task cancelled) leaves the queue; a request nobody
-  waits for any more is never sent.
+  waits for any more is never sent. Except a stop: it goes out even when its caller went
+  away (an HTTP client that disconnects must not leave the machine moving, DESIGN invariant 8).
 * Every caller has a deadline: a request that cannot start in time fails at the deadline with
-  ``DeadlineExpired`` (nothing was sent), not when it finally reaches the head.
+  ``DeadlineExpired`` (nothing was sent), not when it finally reaches the head. Stops have
+  none: a stop never expires (DESIGN invariant 8).
 * Identical read-only queries queued together (same controller, same motor, same commands, all
   ``QUERY`` forms that clear nothing) share one transaction: every caller gets its result. A
   caller of a higher priority lifts the shared request to its priority. Stops are never
@@ -64,8 +66,10 @@ class Request:
 
     @property
     def live(self) -> bool:
-        """Not started and someone still waits for it."""
-        return not self.started and any(not w.future.done() for w in self.waiters)
+        """Not started, and someone still waits for it or it is a stop (sent regardless)."""
+        if self.started:
+            return False
+        return self.priority is Priority.STOP or any(not w.future.done() for w in self.waiters)
 
 
 class RequestQueue:
@@ -117,7 +121,7 @@ class RequestQueue:
             if key is not None:
                 self._shared[key] = request
             self._push(request)
-        if deadline is not None:
+        if deadline is not None and request.priority is not Priority.STOP:
             waiter.timer = loop.call_later(deadline, self._expire, request, waiter, deadline)
         self._on_put()
         return waiter

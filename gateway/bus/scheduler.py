@@ -134,6 +134,13 @@ class LoopScheduler(LoopLifecycle):
             raise self._down_error()
         if all(c.key in STOP_KEYS for c in commands):
             priority = Priority.STOP  # a stop outranks everything queued (DESIGN invariant 8)
+        elif priority is Priority.STOP:
+            # Stop priority jumps the queue, never expires and survives its caller: it is
+            # for stops only, or any caller could starve the line with it.
+            raise TransactionError(
+                f"priority STOP is for stops only ({', '.join(sorted(STOP_KEYS))}); "
+                f"this transaction has {', '.join(c.wire() for c in commands)}"
+            )
         if deadline is None:
             deadline = self.config.deadline_for(priority)
         waiter = self._queue.put(

@@ -182,6 +182,12 @@ class TransactionRunner:
         if st.check is not None and st.before_value is None:
             st.before_value = await self._query(st.check.query)
             st.seen["value_before"] = st.before_value
+        # A pre-read that timed out or was answered '?' dropped the selection (the controller
+        # may have restarted with motor 1 selected, §16): select again, right before the send
+        # (DESIGN invariant 5).
+        if not await self._selected(command):
+            note = f"F{motor} was not taken after a pre-read in doubt (§10 F): not sent"
+            return st.result(ReplyKind.SKIPPED, Outcome.NOT_DONE, note)
         return None
 
     def _again_after_nak(self, st: _Step) -> bool:
