@@ -35,6 +35,7 @@ from typing import Any
 from gateway.bus.config import LoopConfig
 from gateway.bus.requests import Priority
 from gateway.bus.scheduler import LoopScheduler
+from gateway.protocol.framing import BAUD_RATES, BITS_PER_CHAR
 from gateway.protocol.registry import parse
 from gateway.sim.cli import build_loop
 from gateway.sim.clock import RecordKind, SimClock
@@ -43,7 +44,6 @@ from gateway.transport.pipe import PipeTransport
 
 BODIES = ["1", "2", "3"]
 READS = ["6", "OH", "9{b}", "CL", "2D", "OX"]
-BITS_PER_CHAR = 10
 
 
 class _Timed(PipeTransport):
@@ -153,7 +153,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--seconds", type=float, default=10.0, help="device seconds measured")
     parser.add_argument("--time-scale", type=float, default=1.0)
-    parser.add_argument("--baud", type=int, default=9600, choices=[9600, 1200, 300])
+    parser.add_argument("--baud", type=int, default=9600, choices=list(BAUD_RATES))
     parser.add_argument("--callers", type=int, default=12, help="concurrent readers")
     args = parser.parse_args()
     figures = asyncio.run(measure(args.seconds, args.time_scale, args.baud, args.callers))

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from gateway.protocol.framing import Framing
+from gateway.protocol.framing import BITS_PER_CHAR, Framing
 from gateway.protocol.models import Command
 from gateway.protocol.program import CAPACITY_BYTES
 from gateway.protocol.replies import REPLY_OVERHEAD, reply_length
@@ -32,8 +32,6 @@ __all__ = [
     "wire_time",
 ]
 
-#: start + 8 data + stop bits (§2: 8N1, no parity)
-BITS_PER_CHAR = 10
 #: two hex digits before the CR of every CR-terminated message with SUM1 (§10 SUM)
 CHECKSUM_CHARS = 2
 #: the longest data reply: ``IR`` with a full program (§10 IR; capacity §1, §10 I)

@@ -22,6 +22,8 @@ from enum import StrEnum
 from gateway.errors import ParameterError
 
 __all__ = [
+    "BAUD_RATES",
+    "BITS_PER_CHAR",
     "BODY_NUMBERS",
     "CR",
     "EEPROM_DONE",
@@ -51,6 +53,10 @@ __all__ = [
 ]
 
 CR = b"\r"
+#: Bits a character takes on the line: start, 8 data, stop (§2 仕様: 8N1, no parity).
+BITS_PER_CHAR = 10
+#: The line rates, indexed by the digit of ``ES`` (§2 仕様 "9600, 1200, 300bps"; §10 ES 0/1/2).
+BAUD_RATES = (9600, 1200, 300)
 #: Body numbers a host may address; 'F' is the inspection mode that echoes everything (§3-III).
 BODY_NUMBERS = "0123456789ABCDE"
 #: The text after ``$B#`` of the unsolicited messages of §10 AW/DW/IW/EE/// and §10 T.

@@ -17,14 +17,12 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from collections.abc import Callable
 
+from gateway.protocol.framing import BITS_PER_CHAR
 from gateway.sim.clock import LineLog, RecordKind, Scheduler, SimClock
 from gateway.sim.faults import uart_noise
 from gateway.sim.units import Message
 
 __all__ = ["BITS_PER_CHAR", "HostLink", "Line", "LineBusy"]
-
-#: Bits per character on the line: start, 8 data, stop (§2: 8N1).
-BITS_PER_CHAR = 10
 
 
 class LineBusy(RuntimeError):

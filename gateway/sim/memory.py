@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 from enum import IntEnum
 from typing import Any
 
-from gateway.protocol.framing import Framing
+from gateway.protocol.framing import BAUD_RATES, Framing
 from gateway.protocol.params import PositionFormat
 from gateway.protocol.reply_values import (
     Contact,
@@ -55,7 +55,7 @@ class Baud(IntEnum):
     @property
     def bps(self) -> int:
         """Bits per second."""
-        return (9600, 1200, 300)[self.value]
+        return BAUD_RATES[self.value]
 
 
 @dataclass

@@ -47,6 +47,7 @@ from enum import IntEnum, StrEnum
 from pathlib import Path
 from typing import Any
 
+from gateway.protocol.framing import BODY_NUMBERS
 from gateway.protocol.reply_values import Contact, SensorLogic
 
 __all__ = [
@@ -60,9 +61,6 @@ __all__ = [
     "load_scene",
     "parse_scene",
 ]
-
-#: Body numbers that address a controller (§3-III: F is the inspection mode).
-BODY_NUMBERS = "0123456789ABCDE"
 
 
 class Direction(IntEnum):

@@ -13,13 +13,11 @@ import random
 from dataclasses import dataclass, field
 from typing import Any
 
+from gateway.protocol.framing import BAUD_RATES
 from gateway.transport.base import Transport
 from gateway.transport.serial_line import SerialLine
 
 __all__ = ["BAUD_RATES", "Backoff", "open_transport"]
-
-#: The rates an RC-233 talks at (§2 仕様 "ボーレイト : 9600, 1200, 300bps"; §10 ES 0/1/2).
-BAUD_RATES = (9600, 1200, 300)
 
 
 def open_transport(url: str, baud: int, **options: Any) -> Transport:

@@ -19,7 +19,7 @@ import pytest
 from gateway.bus.config import LoopConfig
 from gateway.bus.events import BusEvent, ReplyObserved
 from gateway.bus.scheduler import LoopScheduler
-from gateway.protocol.framing import Series
+from gateway.protocol.framing import BAUD_RATES, Series
 from gateway.protocol.registry import parse
 from gateway.sim.cli import build_loop
 from gateway.sim.clock import LineRecord, RecordKind, SimClock
@@ -144,7 +144,7 @@ async def make_bus() -> AsyncIterator[MakeBus]:
         )
         # The controllers at the line's rate, as if set with ES and powered on (§10 ES).
         for unit in sim.units:
-            unit.device.baud = Baud({9600: 0, 1200: 1, 300: 2}[sim_baud or baud])
+            unit.device.baud = Baud(BAUD_RATES.index(sim_baud or baud))
         holder: list[Bus] = []
         transport = PipeTransport(lambda: holder[0].connect(), url="pipe://sim", baud=baud)
         config.setdefault("host_latency", HOST_LATENCY)
