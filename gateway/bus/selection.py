@@ -24,6 +24,8 @@ motor.
 
 from __future__ import annotations
 
+import functools
+
 from gateway.bus.requests import STOP_KEYS
 from gateway.protocol.framing import Framing
 from gateway.protocol.models import Command
@@ -53,11 +55,13 @@ def needs_selection(command: Command) -> bool:
     )
 
 
+@functools.cache  # command models are frozen: one parse serves every selection
 def select_command(motor: int) -> Command:
     """``F{motor}``."""
     return parse(f"F{motor}")
 
 
+@functools.cache
 def confirm_command() -> Command:
     """``97``: the selected-motor bit of the condition flags."""
     return parse(f"9{_SELECTED_BIT}")

@@ -21,6 +21,7 @@ decisions; the transaction runner makes the reads.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -44,11 +45,13 @@ __all__ = [
 _RANGES = {"OH": (1, 16383), "OL": (1, 16383), "OS": (1, 32767)}
 
 
+@functools.cache  # command models are frozen: one parse serves every read-back
 def status_query() -> Command:
     """``""``: the status flags (bit 0 = moving; bits 1-3 cleared by this read, §10 "")."""
     return parse("")
 
 
+@functools.cache
 def position_query(motor: int | None) -> Command:
     """``6{mt}`` for a known motor (keeps the selection, §10 F), else ``6`` (selected motor)."""
     return parse(f"6{motor}" if motor is not None else "6")
