@@ -143,7 +143,6 @@ class Controller:
         self.selected = 1  # F (§16)
         self.baud = Baud(image.es) if image.es is not None else Baud.B9600
         self.rt = Runtime.power_on(image.iw, bool(image.ga))
-        self._now = now
 
     def power_off(self, now: float) -> None:
         """Switch off: no pulses without power, so a moving motor stops where it is."""
@@ -272,7 +271,6 @@ class Controller:
 
     def advance(self, now: float) -> None:
         """Bring both axes to ``now`` and latch what stopped them (§10 "", §10 9)."""
-        self._now = max(self._now, now)
         for axis in self.axes.values():
             for event in axis.advance(now):
                 if event.kind is AxisEventKind.LIMIT:
