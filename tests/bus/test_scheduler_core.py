@@ -8,6 +8,7 @@ controllers' own state afterwards.
 from __future__ import annotations
 
 import asyncio
+import gc
 
 import pytest
 
@@ -177,9 +178,22 @@ async def test_time_outs_follow_the_baud_rate(make_bus: MakeBus) -> None:
     # The line and the scheduler at 300 bps: a query takes 32 times longer than at 9600,
     # and the scheduler waits for it.
     slow = await make_bus("1", scale=10.0, baud=300, host_latency=0.02)  # room for a loaded host
-    assert (await slow.query("1", "")) == StatusFlags()
-    assert slow.scheduler.snapshot().timeouts == 0
-    assert slow.scheduler.snapshot().late_replies == 0
+    # The first exchange of a fresh process pays for first calls (imports, coverage tracing)
+    # inside its 20 ms of host margin, and a full collection of the suite's heap can take
+    # longer than that: the figures are taken after a warm-up, with the collector paused.
+    await slow.query("1", "")
+    gc.collect()
+    gc.disable()
+    try:
+        before = slow.scheduler.snapshot()
+        for _ in range(5):
+            assert (await slow.query("1", "")) == StatusFlags()
+        after = slow.scheduler.snapshot()
+    finally:
+        gc.enable()
+    assert after.exchanges - before.exchanges == 5
+    assert after.timeouts == before.timeouts
+    assert after.late_replies == before.late_replies
     # A scheduler that believes the line runs at 9600 gives up on the same reply too early.
     wrong = await make_bus("1", scale=10.0, baud=9600, sim_baud=300, host_latency=0.002)
     await wrong.scheduler.submit("1", parse("A010D"))
