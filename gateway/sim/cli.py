@@ -29,7 +29,16 @@ from gateway.sim.loop import SimLoop
 from gateway.sim.scene import Scene, SceneError, load_scene
 from gateway.sim.serve import PtyLine, serve_tcp
 
-__all__ = ["add_sim_parser", "build_loop", "default_eeprom_dir", "main", "parse_bodies", "run_sim"]
+__all__ = [
+    "add_sim_parser",
+    "build_loop",
+    "default_eeprom_dir",
+    "host_port",
+    "main",
+    "parse_bodies",
+    "positive",
+    "run_sim",
+]
 
 log = logging.getLogger("gateway.sim")
 
@@ -51,7 +60,8 @@ def parse_bodies(text: str) -> list[str]:
     return bodies
 
 
-def _host_port(text: str) -> tuple[str, int]:
+def host_port(text: str) -> tuple[str, int]:
+    """``HOST:PORT`` (an argparse type)."""
     host, sep, port = text.rpartition(":")
     if not sep or not host or not port.isdigit() or int(port) > 65535:
         raise argparse.ArgumentTypeError(f"expected HOST:PORT, e.g. 127.0.0.1:5233, not {text!r}")
@@ -65,7 +75,8 @@ def _probability(text: str) -> float:
     return value
 
 
-def _positive(text: str) -> float:
+def positive(text: str) -> float:
+    """A number > 0 (an argparse type)."""
     value = float(text)
     if not value > 0:
         raise argparse.ArgumentTypeError("must be > 0")
@@ -82,7 +93,7 @@ def add_sim_parser(subparsers: Any) -> argparse.ArgumentParser:
     )
     where = sim.add_mutually_exclusive_group(required=True)
     where.add_argument("--pty", action="store_true", help="serve on a pseudo-terminal")
-    where.add_argument("--tcp", type=_host_port, metavar="HOST:PORT", help="serve on TCP")
+    where.add_argument("--tcp", type=host_port, metavar="HOST:PORT", help="serve on TCP")
     sim.add_argument("--bodies", type=parse_bodies, default=["1"], help="e.g. 1,2,3 (default 1)")
     sim.add_argument("--scene", type=Path, metavar="FILE", help="sensor layout (TOML)")
     sim.add_argument(
@@ -92,13 +103,13 @@ def add_sim_parser(subparsers: Any) -> argparse.ArgumentParser:
         metavar="DIR",
         help=f"where the controllers keep their EEPROM (default {default_eeprom_dir()})",
     )
-    sim.add_argument("--time-scale", type=_positive, default=1.0, metavar="X", help="speed-up")
+    sim.add_argument("--time-scale", type=positive, default=1.0, metavar="X", help="speed-up")
     sim.add_argument(
         "--baud", type=int, default=9600, choices=sorted(UART_RATES), metavar="BPS",
         help="the line's (the host's) baud rate; default 9600 (§10 ES factory setting)",
     )  # fmt: skip
     sim.add_argument("--series", choices=["$", "#"], default="$", help="start mark (§9-1)")
-    sim.add_argument("--control", type=_host_port, metavar="HOST:PORT", help="control surface")
+    sim.add_argument("--control", type=host_port, metavar="HOST:PORT", help="control surface")
     sim.add_argument("--turnaround-ms", type=float, default=1.0, help="controller reply delay")
     for kind in ("nak", "drop", "garble", "late"):
         sim.add_argument(

@@ -30,6 +30,7 @@ op                 fields                                                       
 ``sensor``         ``body``, ``motor``, ``sensor``, ``on`` (true/false/null)       force
 ``slip``           ``body``, ``motor``, ``pulses``                                 step-out
 ``input``          ``body``, ``bit`` (0-7; 8, 9: INP1, INP2), ``on``               input
+``inp``            ``body``, ``motor``, ``on`` (true/false/null)                   servo INP
 ``fault``          ``kind`` and ``faults.FaultRule`` fields; neither               arm rule
                    ``probability`` nor ``shots``: one shot
 ``clear_faults``   ``kind``, ``body`` (both optional)                              disarm
@@ -37,6 +38,12 @@ op                 fields                                                       
 
 ``fault`` kinds: nak, drop, garble, late (on the next replies) and power, ems, sensor, slip,
 cut (after the next replies); see ``gateway.sim.faults``.
+
+``slip`` is what step-out detection sees (§10 QS: the dog in modes 0 and 2, the encoder in
+mode 1 and with QSE). ``inp`` drives mode 2's servo driver (§10 CI, §10 DS ③): ``true`` gives
+INP, ``false`` holds it OFF (a motion then ends in a limit error 3 s after its last pulse),
+``null`` lets the driver report INP by itself, ``inp_delay`` seconds (the scene) after the last
+pulse. ``input`` bits 8 and 9 are INP used as general inputs (modes 0, 1: §10 C).
 """
 
 from __future__ import annotations
@@ -49,6 +56,7 @@ from typing import Any
 
 from gateway.protocol.framing import BODY_NUMBERS
 from gateway.sim.clock import RecordKind
+from gateway.sim.controller import Controller
 from gateway.sim.faults import FaultKind, FaultRule
 from gateway.sim.loop import INSPECTION, SimLoop, Unit
 
@@ -153,6 +161,18 @@ class Controls:
             raise ControlError("bit must be 0-7, or 8/9 for INP1/INP2")
         self._on_device(body, lambda u, now: u.device.set_input(now, bit, on))
 
+    def inp(self, body: str, motor: int, on: bool | None) -> None:
+        """Mode 2: give a motor's servo INP (True), hold it OFF (False), or let it be (None)."""
+        self._check_motor(motor)
+
+        def act(unit: Unit, now: float) -> None:
+            device = unit.device
+            if not isinstance(device, Controller):  # pragma: no cover - only Controllers exist
+                raise ControlError("this device has no servo INP")
+            device.set_inp(now, motor, on)
+
+        self._on_device(body, act)
+
     def fault(self, kind: str, **fields: Any) -> dict[str, Any]:
         """Arm a fault rule; without ``probability`` and ``shots`` it is a one-shot."""
         unknown = set(fields) - _RULE_FIELDS
@@ -222,6 +242,7 @@ _OPS: dict[str, Callable[..., Any]] = {
     "sensor": Controls.sensor,
     "slip": Controls.slip,
     "input": Controls.input,
+    "inp": Controls.inp,
     "fault": Controls.fault,
     "clear_faults": Controls.clear_faults,
 }

@@ -43,8 +43,9 @@ from gateway.protocol.registry import parse
 from gateway.protocol.replies import encode_reply, wrap_position
 from gateway.protocol.reply_values import Contact, Version
 from gateway.protocol.spec import Effect
-from gateway.sim import commands  # noqa: F401  (registers every handler)
+from gateway.sim import commands, error_output, stepout  # noqa: F401  (commands: handlers)
 from gateway.sim.axis import Axis, AxisEventKind
+from gateway.sim.commands.program import start_program
 from gateway.sim.dispatch import FRAMING_KEYS, HANDLERS, Refused
 from gateway.sim.eeprom import Eeprom
 from gateway.sim.flags import Error, Flags
@@ -143,6 +144,8 @@ class Controller:
         self.selected = 1  # F (§16)
         self.baud = Baud(image.es) if image.es is not None else Baud.B9600
         self.rt = Runtime.power_on(image.iw, bool(image.ga))
+        if self.rt.autostart and self.rt.program:
+            start_program(self, None, now)  # §10 GA, §11-3 4.: the program runs at power-on
 
     def power_off(self, now: float) -> None:
         """Switch off: no pulses without power, so a moving motor stops where it is."""
@@ -189,9 +192,19 @@ class Controller:
     # ------------------------------------------------------------------ the line
 
     def receive(self, event: CommandFrame | RawText, now: float) -> Response:
-        """Act on one frame (or program text) addressed to this controller."""
+        """Act on one frame (or program text) addressed to this controller.
+
+        A running user program first does what it had to do up to ``now``; what it sent comes
+        with the response (``later``), ahead of the reply in time.
+        """
         if not self._power.on or now < self._power.busy_until:
             return SILENT
+        self.run_program(now)
+        response = self._receive(event, now)
+        self.nudge(now)  # the command may have changed what a waiting program reads
+        return Response(response.reply, (*response.later, *self._drain()))
+
+    def _receive(self, event: CommandFrame | RawText, now: float) -> Response:
         self.advance(now)
         if isinstance(event, RawText):
             if not self.rt.take_program_text(event.text):
@@ -213,8 +226,7 @@ class Controller:
         except Refused:
             self.flags.raise_(Error.COMMAND)
             return self._reply_ack(False, event.raw)
-        later = tuple(self._power.later)
-        self._power.later.clear()
+        later = self._drain()
         if command.reply_format.has_data:
             data = encode_reply(
                 command.reply_format,
@@ -236,9 +248,9 @@ class Controller:
         self.settings.shared.framing = switch.after
         return Response(encode_ack(switch.reply, sent=sent))
 
-    def _check_rules(self, command: Command, now: float) -> None:
+    def _check_rules(self, command: Command, now: float, *, host: bool = True) -> None:
         spec, form = command.spec, command.form
-        if not spec.while_program and self.rt.program_running:
+        if host and not spec.while_program and self.rt.program_running:
             raise Refused("not usable while a user program runs (§11-3 5.)")
         if self.settings.shared.mode not in spec.form_modes(form):
             raise Refused(f"not usable in mode {self.settings.shared.mode} (§10 E)")
@@ -246,6 +258,45 @@ class Controller:
         moving = self.moving_motor(now) is not None
         if restricted and moving and command.key not in _TAKEN_WHILE_MOVING:
             raise Refused("not usable while a motor moves (§2, §9-1 注意)")
+
+    # ------------------------------------------------------------------ the user program
+
+    def program_rules(self, command: Command, now: float) -> None:
+        """``Refused`` when a program statement breaks the mode or while-moving rules."""
+        self._check_rules(command, now, host=False)
+
+    def run_program(self, now: float) -> None:
+        """Let the user program do what it has to do up to ``now`` (chapters 11-12)."""
+        machine = self.rt.machine
+        if machine is not None and self._power.on:
+            machine.run(self, now)
+
+    def wake_at(self) -> float | None:
+        """When the user program next acts by itself (None: it waits for the outside)."""
+        machine = self.rt.machine
+        if machine is None or not self._power.on:
+            return None
+        return machine.next_time(self)
+
+    def wake(self, now: float) -> tuple[Later, ...]:
+        """Run the user program up to ``now``; the messages it sent meanwhile."""
+        self.run_program(now)
+        return self._drain()
+
+    def nudge(self, now: float) -> None:
+        """Something outside changed at ``now``: a program polling in a loop looks again."""
+        if self.rt.machine is not None:
+            self.rt.machine.nudge(now)
+
+    def emit(self, at: float, data: bytes) -> None:
+        """Program output sent at ``at`` (query output, /CO, /CC, /O3, '@'; §11-3, §12)."""
+        power = self._power
+        power.later.append(Later(at, data, lambda: power is self._power))
+
+    def _drain(self) -> tuple[Later, ...]:
+        later = tuple(self._power.later)
+        self._power.later.clear()
+        return later
 
     # ------------------------------------------------------------------ helpers for handlers
 
@@ -270,7 +321,8 @@ class Controller:
         self.later(until - now, EEPROM_DONE, now)
 
     def advance(self, now: float) -> None:
-        """Bring both axes to ``now`` and latch what stopped them (§10 "", §10 9)."""
+        """Bring both axes to ``now``, latch what stopped them (§10 "", §10 9), let ``K``
+        turn its outputs ON for the errors since (§10 K), apply mode, PA and PB to the axes."""
         for axis in self.axes.values():
             for event in axis.advance(now):
                 if event.kind is AxisEventKind.LIMIT:
@@ -279,6 +331,22 @@ class Controller:
                     self.flags.raise_(Error.EMERGENCY)
                 elif event.kind is AxisEventKind.HOMED:
                     self.flags.step_out = False  # §10 9 ⑤: a completed homing clears step-out
+                elif event.kind is AxisEventKind.STEP_OUT:
+                    self.step_out_detected()
+        setting = self.settings.shared.error_output
+        self.rt.outputs = error_output.apply(setting, self.flags.take_rises(), self.rt.outputs)
+        self.configure_axes(now)
+
+    def configure_axes(self, now: float) -> None:
+        """Mode 1 counts encoder pulses, mode 2 drives a servo (§10 E); PA, PB per motor."""
+        mode = self.settings.shared.mode
+        for n, axis in self.axes.items():
+            axis.configure(now, mode, self.settings.motors[n].pa, self.settings.motors[n].pb)
+
+    def step_out_detected(self) -> None:
+        """Latch a step-out: 9 bit 6, and the limit error of both stores (§10 9 bit 1, ⑥)."""
+        self.flags.step_out = True
+        self.flags.raise_(Error.LIMIT)
 
     def moving_motor(self, now: float) -> int | None:
         """The motor that is moving, if any (the two never move together, §2)."""
@@ -326,9 +394,19 @@ class Controller:
         self.axes[motor].force(sensor, on)  # type: ignore[arg-type]
 
     def slip(self, now: float, motor: int, pulses: int) -> None:
-        """Lose ``pulses`` on ``motor`` (step-out injection; detection is part II)."""
+        """Lose ``pulses`` on ``motor`` (step-out injection); a motor at rest is checked at
+        once when QS 2 asks for it (§10 QS, mode 1), a moving one by its motion's detection."""
         self.advance(now)
-        self.axes[motor].slip(now, pulses)
+        axis = self.axes[motor]
+        axis.slip(now, pulses)
+        guard = stepout.rest_guard_for(self.settings, motor, self.selected)
+        if guard and not axis.is_moving(now) and abs(axis.counts.deviation) > guard.window:
+            self.step_out_detected()
+
+    def set_inp(self, now: float, motor: int, on: bool | None) -> None:
+        """Give (True) or hold OFF (False) the INP of ``motor``'s servo; None: the driver's own."""
+        self.advance(now)
+        self.axes[motor].set_inp(now, on)
 
     def set_input(self, now: float, bit: int, on: bool) -> None:
         """Drive general input ``bit`` (0-7) of the I/O port."""
@@ -363,6 +441,8 @@ class Controller:
                     "position": self.position(n, now),
                     "moving": axis.is_moving(now),
                     "speed": axis.speed(now),
+                    "inp": axis.inp(now),
+                    "clr_pulses": list(axis.servo.clr),
                 }
                 for n, axis in self.axes.items()
             },

@@ -1,26 +1,39 @@
 """What runs on an axis (a motion laid on the scene, a search waiting for INP), what it leaves.
 
 A ``Motion`` is a ``kinematics.MotionProfile`` started at a mechanical position and turning one
-way; ``rearm`` works out ahead of time when it ends early, on its limit (§4-4) or on the
-condition of the search step it runs (``watch``), so that the ``Axis`` settles it right then
-without polling. A ``Pause`` is a search waiting for INP (mode 2, §10 0X ⑤). ``low_run`` is the
-profile of a counted search run at Low speed. What comes of them: ``AxisEvent``s for the
-controller and ``Leg``s, the finished stretches of motion.
+way; ``rearm`` works out ahead of time when it ends early, on its limit (§4-4), on the
+condition of the search step it runs (``watch``) or on a step-out (``stepout``), so that the
+``Axis`` settles it right then without polling. A ``Pause`` is a search or a follow-up waiting
+(for INP in mode 2, §10 0X ⑤; for QJT in mode 1, §10 QJ ①). A ``FollowUp`` is what runs after
+a plain motion that put all its pulses out (the INP wait of mode 2, the QJ adjustment of
+mode 1). ``low_run`` is the profile of a counted run at Low speed. What comes of them:
+``AxisEvent``s for the controller and ``Leg``s, the finished stretches of motion.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from enum import StrEnum
 
-from gateway.sim.homing import Ending, Halt, Run
+from gateway.sim.homing import Ending, Halt, Run, Sequence
 from gateway.sim.kinematics import MotionKind, MotionProfile, SpeedLevel
 from gateway.sim.profile import Segment, SpeedSettings
 from gateway.sim.scene import Direction, SensorName, SensorReader
+from gateway.sim.stepout import DogGuard, Guard
 from gateway.sim.watch import Track, Watch, watch
 
-__all__ = ["AxisEvent", "AxisEventKind", "Leg", "Motion", "Pause", "Task", "low_run"]
+__all__ = [
+    "AxisEvent",
+    "AxisEventKind",
+    "FollowUp",
+    "Leg",
+    "Motion",
+    "Pause",
+    "Task",
+    "low_run",
+]
 
 
 class AxisEventKind(StrEnum):
@@ -29,7 +42,20 @@ class AxisEventKind(StrEnum):
     LIMIT = "limit"  # a limit stopped pulse output (or a search ended in an error stop)
     EMERGENCY = "emergency"  # EMS stopped the axis
     HOMED = "homed"  # a search ended; the counter is 0 at the origin
-    CLEAR = "clear"  # mode 2: CLR output ON for 100 µs during a search (§10 0X, DS ①)
+    CLEAR = "clear"  # mode 2: CLR output ON for 100 µs (§10 0X, DS ①-⑥)
+    STEP_OUT = "step_out"  # a step-out was detected and stopped the motor (§10 Q, QE)
+
+
+@dataclass(frozen=True)
+class FollowUp:
+    """What runs after a plain motion that put all its pulses out, with its speeds.
+
+    ``plan`` is called when the pulses end (it may look at the axis then); the plan's steps
+    run at ``settings``' Low speed (mode 1's QJO, §10 QJ form VIII).
+    """
+
+    plan: Callable[[], Sequence]
+    settings: SpeedSettings
 
 
 @dataclass(frozen=True)
@@ -63,6 +89,10 @@ class Motion:
     cause: Ending = Ending.DONE
     width: int = 0
     armed: float = math.inf
+    guard: Guard | None = None  # step-out detection of a plain motion (§10 QS)
+    counter_origin: int = 0  # the position counter at pulse 0 (the dog's reference)
+    slipped: int = 0  # pulses lost since it started (the encoder's deviation)
+    after: FollowUp | None = None  # what runs once all its pulses are out
 
     @property
     def end_time(self) -> float:
@@ -95,10 +125,23 @@ class Motion:
         else:
             seen = Watch()
         self.width, self.armed = seen.width, seen.armed
-        if t_limit <= seen.time:  # a tie goes to the limit
+        t_out = self._step_out(track, k_limit, t)
+        if t_limit <= min(seen.time, t_out):  # a tie goes to the limit
             self.due, self.cause = t_limit, Ending.LIMIT
+        elif t_out <= seen.time:
+            self.due, self.cause = t_out, Ending.STEP_OUT
         else:
             self.due, self.cause = seen.time, Ending.DONE
+
+    def _step_out(self, track: Track, k_limit: int | None, t: float) -> float:
+        """When the step-out detection stops this motion (``inf``: it does not)."""
+        guard = self.guard
+        if guard is None:
+            return math.inf
+        if isinstance(guard, DogGuard):
+            bounded = track if k_limit is None else replace(track, k_max=k_limit)
+            return guard.due(bounded, self.counter_origin)
+        return guard.due(self.profile.start, t, self.profile.end_time, self.slipped)
 
     def expire(self, reader: SensorReader) -> Ending | None:
         """Its time is up (``end_time``): cut the profile there and tell how the motion ended.
@@ -120,10 +163,15 @@ class Motion:
 
 @dataclass
 class Pause:
-    """A search waiting for INP (mode 2): moving as far as the status flags go (§10 0X ⑤)."""
+    """A search or follow-up waiting: moving as far as the status flags go (§10 0X ⑤, QJ).
+
+    ``inp_since`` (waits for INP only): when pulse output stopped; the wait ends with INP,
+    or 3 s after that time (§10 0X 注意).
+    """
 
     end_time: float
     ending: Ending
+    inp_since: float | None = None
 
 
 Task = Motion | Pause

@@ -33,6 +33,7 @@ __all__ = [
     "Sequence",
     "Speed",
     "Until",
+    "Wait",
     "WaitInp",
     "plan",
 ]
@@ -127,6 +128,13 @@ class WaitInp:
 
 
 @dataclass(frozen=True)
+class Wait:
+    """Pause for ``seconds``, moving as far as the status flags go (§10 QJ ①: QJT)."""
+
+    seconds: float
+
+
+@dataclass(frozen=True)
 class PulseClr:
     """Mode 2: the CLR output goes ON for 100 µs (§10 0X, §10 DS ①)."""
 
@@ -138,7 +146,7 @@ class Finish:
     homed: bool
 
 
-Action = Run | WaitInp | PulseClr | Finish
+Action = Run | WaitInp | Wait | PulseClr | Finish
 
 
 class Ending(StrEnum):
@@ -147,6 +155,7 @@ class Ending(StrEnum):
     DONE = "done"  # condition met or distance run
     LIMIT = "limit"  # the limit sensor in the direction of travel turned ON
     TIMEOUT = "timeout"  # no INP within 3 s
+    STEP_OUT = "step_out"  # a plain motion stopped by step-out detection (§10 Q, QE)
 
 
 @dataclass(frozen=True)

@@ -15,6 +15,12 @@ itself still goes out at the rate the command came in at. A controller whose bod
 'F' is in inspection mode (§3-III): it echoes what it hears, at 9600 (§10 ES 注意点 has the
 host at 9600 for it), and a lone '/' erases its EEPROM.
 
+User programs (§11-3): a controller whose program runs is woken at the simulated times it
+asks for (``Device.wake_at``: a statement, the end of a motion or of the timer) and what the
+program sends goes on the return line like ``$B#*``, one whole message at a time, behind a
+reply already going out. After a control action or a device fault the controllers are nudged,
+so that a program polling an input sees the change.
+
 The wire itself (byte timing, the return line, cuts, the host end, the ``log``) is
 ``line.Line``; the controllers as the loop sees them are ``units``. ``serve`` has the in-process
 port, the pseudo-terminal and the TCP server built on the loop.
@@ -64,12 +70,16 @@ class SimLoop(Line):
         self._sums: set[tuple[Series, str]] = set()
         self._frames = 0
         self._sync_reader()
+        for unit in self.units:  # a program GA started at power-on (§10 GA)
+            self._arm(unit)
 
     def act(self, action: Callable[[float], None]) -> float:
         """Run ``action(now)`` after everything due; the control surface's way in."""
         now = self.now()
         self.scheduler.run_due(now)
         action(now)
+        for unit in self.units:
+            self._nudge(unit, now)
         self._sync_reader()
         self.scheduler.kick()
         return now
@@ -146,6 +156,34 @@ class SimLoop(Line):
         self.scheduler.at(
             ready, self._transmit, Message(unit, reply, RecordKind.REPLY, ref, draw, bps), ready
         )
+        self._arm(unit)
+
+    # ------------------------------------------------------------------ user programs
+
+    def _arm(self, unit: Unit) -> None:
+        """Schedule the next wake of ``unit``'s program, if it asks for one."""
+        at = unit.device.wake_at() if unit.on and not unit.inspecting else None
+        if at == unit.wake_time:
+            return
+        unit.wake_token += 1
+        unit.wake_time = at
+        if at is not None:
+            self.scheduler.at(at, self._wake, unit, unit.generation, unit.wake_token)
+
+    def _wake(self, unit: Unit, generation: int, token: int) -> None:
+        if token != unit.wake_token or generation != unit.generation or not unit.on:
+            return
+        unit.wake_time = None
+        for message in unit.device.wake(self.scheduler.time):
+            self.scheduler.at(message.at, self._later, unit, unit.generation, message)
+        self._sync_reader()  # a program may switch SUM (§10 SUM in programs)
+        self._arm(unit)
+
+    def _nudge(self, unit: Unit, now: float) -> None:
+        """Something outside changed: a program polling in a loop looks again."""
+        if unit.on and not unit.inspecting:
+            unit.device.nudge(now)
+            self._arm(unit)
 
     def _later(self, unit: Unit, generation: int, message: LaterLike) -> None:
         if unit.on and unit.generation == generation and message.wanted():
@@ -179,6 +217,7 @@ class SimLoop(Line):
             )
         elif rule.kind is FaultKind.SLIP:
             device.slip(now, rule.motor, rule.pulses)
+        self._nudge(unit, now)
 
     # ------------------------------------------------------------------ the bus
 
@@ -211,6 +250,8 @@ class SimLoop(Line):
             self._transmit(Message(unit, response.reply, RecordKind.LATER), now)
         for message in response.later:
             self.scheduler.at(message.at, self._later, unit, unit.generation, message)
+        unit.wake_time = None  # wakes of the last power-on are stale (generation)
+        self._arm(unit)  # autostart (§10 GA)
 
     def power_cycle(self, unit: Unit, now: float, off_for: float = 0.0) -> None:
         """Off now, on again ``off_for`` seconds later."""

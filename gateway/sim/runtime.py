@@ -1,16 +1,20 @@
 """RAM-only state of a simulated RC-233 that is not a ``DW`` setting.
 
 The I/O port, the timer, the user program and its buffers and counters, and the ``B`` sequence.
-Simulator part I stores and reads these back exactly as the commands set them; what they do to
-the machine (outputs driving things, timer messages, programs running) is part II, and the
-README lists it as missing until then.
+The program's interpreter (``gateway.sim.program.Machine``) keeps its own run state; where it
+stands (``step``, GN) and how (``program_state``, GSS) live here, where the host commands read
+them.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 from gateway.protocol.reply_values import ClrState, ProgramState
+
+if TYPE_CHECKING:
+    from gateway.sim.program.machine import Machine
 
 __all__ = ["Runtime", "Timer"]
 
@@ -41,7 +45,8 @@ class Runtime:
     autostart: bool = False  # GA
     awaiting_program: bool = False  # between the '>' of I and the CR of the program text
     program_state: ProgramState = ProgramState.ENDED
-    step: int = 0  # GN: the next statement's position, counted in '/' (part II runs programs)
+    step: int = 0  # GN: the next statement's position, counted in '/' (§10 GN)
+    machine: Machine | None = None  # the last program G (or GA) started
     inputs: int = 0  # general inputs 7-0 (C)
     inp: tuple[bool, bool] = (False, False)  # INP1, INP2 (C8, C9, CA, CI)
     outputs: int = 0  # general outputs 7-0 (D, CO)
@@ -69,7 +74,8 @@ class Runtime:
 
         §10 I: the first character must be '/', otherwise the reply is still '>' with the
         command-error flag and nothing is stored. The device checks nothing else at upload: a
-        bad statement shows when the program runs (part II), so the text is kept as sent.
+        bad statement shows when the program runs (a command error then), so the text is kept
+        as sent.
         """
         self.awaiting_program = False
         if not text.startswith("/"):

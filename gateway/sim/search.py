@@ -1,14 +1,18 @@
-"""An origin search under way on one axis: it feeds the step plan and turns steps into tasks.
+"""A step plan under way on one axis (an origin search, or what follows a plain motion):
+it feeds the plan and turns its steps into tasks.
 
-``homing.plan`` says what comes next; ``Search.proceed`` turns a ``Run`` into a ``Motion`` at
-the search speeds (a counted run at Low speed without ramp, §7-1; High speed ramps up from fL,
-§10 0A, 0H), a ``WaitInp`` into a ``Pause`` until INP or the 3 s timeout (§10 0X 注意), a
-``PulseClr`` (mode 2, §10 0X, §10 DS ①) and the ``Finish`` into events. The ``Axis`` carries
-the tasks out and reports back what happened (``readings``).
+``homing.plan`` (or a ``course.FollowUp``: the INP wait of mode 2, the QJ adjustment of mode 1)
+says what comes next; ``Search.proceed`` turns a ``Run`` into a ``Motion`` at the plan's speeds
+(a counted run at Low speed without ramp, §7-1; High speed ramps up from fL, §10 0A, 0H), a
+``WaitInp`` into a ``Pause`` until INP or the 3 s timeout (§10 0X 注意), a ``Wait`` into a
+``Pause`` (§10 QJ ①), a ``PulseClr`` (mode 2, §10 0X, §10 DS) and the ``Finish`` into events.
+A plan that just ends leaves no event. The ``Axis`` carries the tasks out and reports back
+what happened (``readings``).
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from gateway.sim.course import AxisEvent, AxisEventKind, Motion, Pause, Task, low_run
@@ -21,13 +25,21 @@ from gateway.sim.homing import (
     Sequence,
     Speed,
     Until,
+    Wait,
     WaitInp,
 )
 from gateway.sim.kinematics import MotionProfile, plan_jog
 from gateway.sim.profile import SpeedSettings
 from gateway.sim.scene import SensorName, SensorReader
 
-__all__ = ["Next", "Search", "readings"]
+__all__ = ["Next", "Search", "inp_wait", "readings"]
+
+
+def inp_wait(since: float, inp: float) -> Pause:
+    """Waiting from ``since`` for INP, which comes at ``inp``: at most 3 s (§10 0X 注意)."""
+    if inp <= since + INP_TIMEOUT:
+        return Pause(max(inp, since), Ending.DONE, inp_since=since)
+    return Pause(since + INP_TIMEOUT, Ending.TIMEOUT, inp_since=since)
 
 
 def readings(
@@ -63,11 +75,13 @@ class Search:
         self._settings = settings
         self._reader = reader
 
-    def proceed(self, t: float, outcome: Outcome | None, here: int, inp_delay: float) -> Next:
+    def proceed(
+        self, t: float, outcome: Outcome | None, here: int, inp_at: Callable[[float], float]
+    ) -> Next:
         """Feed the plan ``outcome`` (None: start it); go on up to an action that takes time.
 
-        ``here`` is the axis's mechanical position, ``inp_delay`` how long the driver takes to
-        report INP (the scene's).
+        ``here`` is the axis's mechanical position, ``inp_at(t)`` when the driver's INP is ON
+        from t on (``inf``: held OFF).
         """
         events: list[AxisEvent] = []
         while True:
@@ -79,9 +93,9 @@ class Search:
                 motion = Motion(self._profile(t, action), action.direction, here, step=action)
                 return Next(motion, events)
             if isinstance(action, WaitInp):
-                if inp_delay <= INP_TIMEOUT:
-                    return Next(Pause(t + inp_delay, Ending.DONE), events)
-                return Next(Pause(t + INP_TIMEOUT, Ending.TIMEOUT), events)
+                return Next(inp_wait(t, inp_at(t)), events)
+            if isinstance(action, Wait):
+                return Next(Pause(t + action.seconds, Ending.DONE), events)
             if isinstance(action, PulseClr):
                 events.append(AxisEvent(t, AxisEventKind.CLEAR))
                 outcome = readings(self._reader, here)

@@ -5,6 +5,10 @@ fulfils the protocol), the body number it was started as, its body switch and it
 whose body switch read 'F' at power-on is in inspection mode (§3-III) and talks at 9600 (§10 ES
 注意点). A ``Message`` is what a unit puts on the return line; it belongs to the power-on it was
 made in, and a power-off loses it.
+
+A controller whose user program runs acts without a host frame: the loop asks it when it next
+needs to run (``Device.wake_at``), wakes it then (``Device.wake``) and sends what it returns,
+and tells it when something outside changed (``Device.nudge``: a control action, a fault).
 """
 
 from __future__ import annotations
@@ -85,6 +89,15 @@ class Device(Protocol):
     def receive(self, event: CommandFrame | RawText, now: float) -> ResponseLike:
         """Act on a frame addressed to it."""
 
+    def wake_at(self) -> float | None:
+        """When its user program next acts by itself (None: not by itself)."""
+
+    def wake(self, now: float) -> Sequence[LaterLike]:
+        """Run its user program up to ``now``; the messages it sent meanwhile."""
+
+    def nudge(self, now: float) -> None:
+        """Something outside changed at ``now`` (an input, a sensor, EMS)."""
+
     def note_noise(self, now: float) -> None:
         """A frame reached it garbled (communication error)."""
 
@@ -122,6 +135,8 @@ class Unit:
     switch: str  # the body switch; read at the next power-on
     on: bool = True
     generation: int = 0  # counts power-offs: a message of an older generation is lost
+    wake_token: int = 0  # the program wake armed last; older ones are stale
+    wake_time: float | None = None  # when that wake is due
 
     @property
     def inspecting(self) -> bool:

@@ -79,3 +79,26 @@ class Direct:
         """Switch one controller off and on (EEPROM kept)."""
         self.controllers[body].power_cycle(self.now)
         self._sync(self.controllers[body])
+
+    def run(self, until: float, body: str = "1") -> list[bytes]:
+        """Let the user program of ``body`` run up to ``until``; the messages due by then.
+
+        The program is woken at the times it asks for (``Controller.wake_at``), as the loop
+        does; the clock ends at ``until``.
+        """
+        ctl = self.controllers[body]
+        while (t := ctl.wake_at()) is not None and t <= until:
+            self.now = max(self.now, t)
+            self.later.extend(ctl.wake(self.now))
+        self.now = max(self.now, until)
+        return self.due()
+
+    def set_input(self, bit: int, on: bool, body: str = "1") -> None:
+        """Drive a general input (or INP1/INP2 as 8/9) now, as the control surface does."""
+        ctl = self.controllers[body]
+        ctl.set_input(self.now, bit, on)
+        ctl.nudge(self.now)
+
+    def upload(self, program: str, body: str = "1") -> bytes:
+        """``I`` then the program text and CR (§10 I); the two replies."""
+        return self.cmd("I", body) + self.send(to_wire(program) + b"\r")

@@ -6,15 +6,13 @@ command section of chapter 10 with an example, the EE/EL/ER/SUM/EP reply tables,
 sections of "" and 9, and the §16 default table (read back with the query forms of §10/§15).
 `line` is the line of RC-233_manual_ja.txt where the example (or the rule it checks) is printed.
 
-Three tables:
+Two tables:
 - `EXAMPLES`: run against a fresh simulator by test_manual_examples.py; every step's
   reply must match byte for byte.
 - `NEEDS_CONTROL`: examples whose state cannot be reached with commands alone (a sensor ON,
   EMS, line noise, a power cycle, the loop baud, unsolicited messages). `needs` says what, and
   `Step.control` names the action to take before that step's frame. Run by
   test_manual_examples.py through the control surface (`Controls`) of the `wire` fixture.
-- `PART_TWO`: examples of part II (modes 1/2, step-out detection, general I/O, K, P, timer,
-  user programs). Data only.
 
 Conventions:
 - `send` is exactly the frame (the manual's '¥' would be '\\'); `reply` exactly the bytes the
@@ -1122,6 +1120,86 @@ _DEFAULTS: tuple[Example, ...] = (
     Example("§16", 9390, (S(b"$1SUM\r", b">$10\r"),), note="SUM default 0."),
 )
 
+_MODES_AND_IO: tuple[Example, ...] = (
+    Example(
+        "§10 9",
+        2554,
+        (_ack(b"$1E2\r"), S(b"$194\r", b">$12\r")),
+        note="使用例 $194 -> >$12: mode 2.",
+    ),
+    Example(
+        "§10 D",
+        3407,
+        (_ack(b"$1DE1\r"), S(b"$1CO\r", b">$1E1\r")),
+        note="使用例 $1DE1: bits 0, 5-7 ON. Readback with CO added.",
+    ),
+    Example(
+        "§10 E",
+        3666,
+        (_ack(b"$1E1\r"), S(b"$1E\r", b">$11\r"), S(b"$19\r", b">$110\r")),
+        note="使用例 $1E1 (mode 1). Readbacks added (9 bits 5,4 = 01).",
+    ),
+    Example(
+        "§10 K",
+        5063,
+        (_ack(b"$1K2,FF\r"), S(b"$1K\r", b">$12,FF\r")),
+        note="使用例 $1K2, FF (the OCR shows a space after the comma; the format has none).",
+    ),
+    Example(
+        "§10 K",
+        5065,
+        (_ack(b"$1K5,3\r"), S(b"$1K\r", b">$15,08\r")),
+        note="使用例 $1K5, 3 (bit 3). Readback (DU DL of bit 3 = 08) is our reading.",
+    ),
+    Example("§10 P", 5849, (_ack(b"$1P2300\r"),), note="使用例: bit 2 ON for 30 s."),
+    Example(
+        "§10 QS",
+        6547,
+        (_ack(b"$1QS10\r"), S(b"$1QS\r", b">$110\r")),
+        note="使用例 $1QS10; the text says 'motor 1 only' but the format is M2 M1, so '10' "
+        "sets motor 2: an inconsistency of the manual, kept verbatim (readback as sent).",
+    ),
+    Example(
+        "§10 T",
+        6826,
+        (_ack(b"$1T*10\r"), S(b"$1T\r", b">$11\r")),
+        note="使用例: timer 1 s without the $1T message; T answers >$11 while counting, >$10 "
+        "after (5 characters).",
+    ),
+    Example("§16", 9356, (S(b"$10QD\r", b">$100010\r"),), note="0Q pd default 10."),
+    Example("§16", 9362, (S(b"$1CO\r", b">$100\r"),), note="D outputs default 00."),
+    Example("§16", 9372, (S(b"$1GA\r", b">$10\r"),), note="GA default off."),
+    Example("§16", 9373, (S(b"$1K\r", b">$10,00\r"),), note="K default 0,00."),
+    Example("§16", 9382, (S(b"$1QD\r", b">$100400\r"),), note="Q default 400."),
+    Example("§16", 9383, (S(b"$1QE\r", b">$14\r"),), note="QE default 4."),
+    Example("§16", 9388, (S(b"$1QS\r", b">$100\r"),), note="QS default 00."),
+    Example("§16", 9389, (S(b"$1QSE\r", b">$100\r"),), note="QSE default 00."),
+    Example(
+        "§16",
+        9380,
+        (_ack(b"$1E1\r"), S(b"$1PA\r", b">$11\r"), S(b"$1PB\r", b">$1010\r")),
+        note="PA 1, PB 10 (mode 1 only commands; PB query 3 digits).",
+    ),
+    Example(
+        "§16",
+        9384,
+        (
+            _ack(b"$1E1\r"),
+            S(b"$1QJ\r", b">$100\r"),
+            S(b"$1QJA\r", b">$100800\r"),
+            S(b"$1QJO\r", b">$100000\r"),
+            S(b"$1QJT\r", b">$1003\r"),
+        ),
+        note="QJ 00, QJA 800, QJO 0, QJT 3 (mode 1; QJT 3 digits, QJA/QJO 5 digits).",
+    ),
+    Example(
+        "§16",
+        9358,
+        (_ack(b"$1E2\r"), S(b"$10X\r", b">$10\r")),
+        note="0X default 0 (mode 2 only).",
+    ),
+)
+
 EXAMPLES: tuple[Example, ...] = (
     _CH8_9
     + _NULL_AND_9
@@ -1135,6 +1213,7 @@ EXAMPLES: tuple[Example, ...] = (
     + _ER
     + _SUM
     + _DEFAULTS
+    + _MODES_AND_IO
 )
 """The main table: each runs in a fresh simulator with commands alone."""
 
@@ -1285,14 +1364,6 @@ NEEDS_CONTROL: tuple[Example, ...] = (
         "goes out at 9,600 is not said: we expect 9,600 (the reply to the frame received).",
         needs={"baud": "switch the loop to 1200 after step 1"},
     ),
-)
-
-
-# ---------------------------------------------------------------------------------------------
-# Part II (modes 1/2, step-out detection, general I/O, K, P, timer, user programs): data only.
-# ---------------------------------------------------------------------------------------------
-
-PART_TWO: tuple[Example, ...] = (
     Example(
         "§10 9",
         2538,
@@ -1307,91 +1378,10 @@ PART_TWO: tuple[Example, ...] = (
         needs={"mode": "1", "sensor": "motor 2 cw_limit ON"},
     ),
     Example(
-        "§10 9",
-        2554,
-        (_ack(b"$1E2\r"), S(b"$194\r", b">$12\r")),
-        note="使用例 $194 -> >$12: mode 2.",
-        needs={"mode": "2"},
-    ),
-    Example(
         "§10 C",
         2944,
         (S(b"$1C\r", b">$12F\r", control="inputs 0,1,2,3,5 on"),),
         note="応答例 >$12F: bits 0-3 and 5 ON.",
         needs={"inputs": "0,1,2,3,5 ON"},
-    ),
-    Example(
-        "§10 D",
-        3407,
-        (_ack(b"$1DE1\r"), S(b"$1CO\r", b">$1E1\r")),
-        note="使用例 $1DE1: bits 0, 5-7 ON. Readback with CO added.",
-    ),
-    Example(
-        "§10 E",
-        3666,
-        (_ack(b"$1E1\r"), S(b"$1E\r", b">$11\r"), S(b"$19\r", b">$110\r")),
-        note="使用例 $1E1 (mode 1). Readbacks added (9 bits 5,4 = 01).",
-    ),
-    Example(
-        "§10 K",
-        5063,
-        (_ack(b"$1K2,FF\r"), S(b"$1K\r", b">$12,FF\r")),
-        note="使用例 $1K2, FF (the OCR shows a space after the comma; the format has none).",
-    ),
-    Example(
-        "§10 K",
-        5065,
-        (_ack(b"$1K5,3\r"), S(b"$1K\r", b">$15,08\r")),
-        note="使用例 $1K5, 3 (bit 3). Readback (DU DL of bit 3 = 08) is our reading.",
-    ),
-    Example("§10 P", 5849, (_ack(b"$1P2300\r"),), note="使用例: bit 2 ON for 30 s."),
-    Example(
-        "§10 QS",
-        6547,
-        (_ack(b"$1QS10\r"), S(b"$1QS\r", b">$110\r")),
-        note="使用例 $1QS10; the text says 'motor 1 only' but the format is M2 M1, so '10' "
-        "sets motor 2: an inconsistency of the manual, kept verbatim (readback as sent).",
-    ),
-    Example(
-        "§10 T",
-        6826,
-        (_ack(b"$1T*10\r"), S(b"$1T\r", b">$11\r")),
-        note="使用例: timer 1 s without the $1T message; T answers >$11 while counting, >$10 "
-        "after (5 characters).",
-    ),
-    Example("§16", 9356, (S(b"$10QD\r", b">$100010\r"),), note="0Q pd default 10."),
-    Example("§16", 9362, (S(b"$1CO\r", b">$100\r"),), note="D outputs default 00."),
-    Example("§16", 9372, (S(b"$1GA\r", b">$10\r"),), note="GA default off."),
-    Example("§16", 9373, (S(b"$1K\r", b">$10,00\r"),), note="K default 0,00."),
-    Example("§16", 9382, (S(b"$1QD\r", b">$100400\r"),), note="Q default 400."),
-    Example("§16", 9383, (S(b"$1QE\r", b">$14\r"),), note="QE default 4."),
-    Example("§16", 9388, (S(b"$1QS\r", b">$100\r"),), note="QS default 00."),
-    Example("§16", 9389, (S(b"$1QSE\r", b">$100\r"),), note="QSE default 00."),
-    Example(
-        "§16",
-        9380,
-        (_ack(b"$1E1\r"), S(b"$1PA\r", b">$11\r"), S(b"$1PB\r", b">$1010\r")),
-        note="PA 1, PB 10 (mode 1 only commands; PB query 3 digits).",
-        needs={"mode": "1"},
-    ),
-    Example(
-        "§16",
-        9384,
-        (
-            _ack(b"$1E1\r"),
-            S(b"$1QJ\r", b">$100\r"),
-            S(b"$1QJA\r", b">$100800\r"),
-            S(b"$1QJO\r", b">$100000\r"),
-            S(b"$1QJT\r", b">$1003\r"),
-        ),
-        note="QJ 00, QJA 800, QJO 0, QJT 3 (mode 1; QJT 3 digits, QJA/QJO 5 digits).",
-        needs={"mode": "1"},
-    ),
-    Example(
-        "§16",
-        9358,
-        (_ack(b"$1E2\r"), S(b"$10X\r", b">$10\r")),
-        note="0X default 0 (mode 2 only).",
-        needs={"mode": "2"},
     ),
 )

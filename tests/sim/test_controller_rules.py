@@ -58,7 +58,8 @@ def wait_idle(direct: Direct, seconds: float = 30.0) -> None:
 def latch_step_out(direct: Direct) -> None:
     """Latch the step-out error (bit 6 of 9), as a detected step-out does (§10 Q, §10 9).
 
-    Detection itself is simulator part II; the latch is what the rules below depend on.
+    Set directly here: the rules below depend on the latch, not on how it was detected
+    (detection: tests/sim/test_stepout.py).
     """
     direct["1"].flags.step_out = True
 

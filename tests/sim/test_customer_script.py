@@ -8,8 +8,8 @@ loop of ``B`` moves, and prints the position (``6``) after every line that moves
 test checks those positions against what the DATA lines imply: the ``A`` table of the sample
 (101 = 5000, 201 = 8000, 202 = 12000) and 0 after homing and after ``1``.
 
-The sample's step-out detection lines (QS11, Q1024, 0Q) belong to simulator part II and are
-left out, as is its ``OL5`` after ``0Q``.
+The sample's step-out detection lines (QS11, Q1024, 0Q) and its ``OL5`` after ``0Q`` are left
+out here: the whole sample, with them, runs in test_sample_233e0.py.
 """
 
 from __future__ import annotations

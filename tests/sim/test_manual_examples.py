@@ -32,13 +32,12 @@ from tests.sim.manual_examples import (
     ACK,
     EXAMPLES,
     NEEDS_CONTROL,
-    PART_TWO,
     VERSION_REPLY_PATTERN,
     Example,
     Step,
 )
 
-ALL_TABLES = EXAMPLES + NEEDS_CONTROL + PART_TWO
+ALL_TABLES = EXAMPLES + NEEDS_CONTROL
 
 
 def _describe(example: Example, index: int, step: Step) -> str:
@@ -189,7 +188,7 @@ def test_frames_are_well_formed(example: Example) -> None:
         assert re.fullmatch(rb"\$[0-9A-E][^\r$]*\r", step.send), step.send
 
 
-@pytest.mark.parametrize("example", NEEDS_CONTROL + PART_TWO, ids=lambda e: e.ident)
+@pytest.mark.parametrize("example", NEEDS_CONTROL, ids=lambda e: e.ident)
 def test_control_words_and_scenes_are_known(example: Example) -> None:
     for step in example.steps:
         _control_actions(step.control, "1")

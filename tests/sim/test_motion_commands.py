@@ -127,11 +127,15 @@ def test_h_and_l_without_a_jog_change_nothing() -> None:
     assert direct.cmd("") == STOPPED
 
 
-def test_g_is_refused_until_programs_run() -> None:
-    # docs/manual-notes.md "G before simulator part II".
+def test_g_without_a_program_is_a_command_error() -> None:
+    # §10 G 注意点: G with no program in RAM, or G{lb} with a label the program lacks, is an
+    # error. Programs that run: tests/sim/test_program_*.py.
     direct = Direct()
-    direct.cmd("I")
-    assert direct.send(b"/END\r") == ACK
     assert direct.cmd("G") == ACK
+    assert direct.cmd("") == b">$18\r"
+    assert direct.cmd("GSS") == b">$10\r"
+    direct.cmd("I")
+    assert direct.send(b"/G1/END\r") == ACK
+    assert direct.cmd("G2") == ACK
     assert direct.cmd("") == b">$18\r"
     assert direct.cmd("GSS") == b">$10\r"

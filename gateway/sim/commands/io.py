@@ -1,7 +1,9 @@
 """The I/O port, the CLR outputs and the timer: §10 C, CI, CO, D, DA, DS, P, T, GRT, GWT.
 
-Part I keeps the state these commands set and read. Inputs come from the control surface. The
-timer is the one internal timer that T, T*, P and GWT share (§10 T 注意点); ``$B#T`` is sent at
+Inputs come from the control surface. ``CI`` (mode 2) reads the servo driver's INP and ``DS``
+shows the 100 µs CLR pulses of mode 2 besides what ``DS`` forces (``servo``). The ``K`` error
+output ORs its bits into the general outputs (the controller, ``error_output``). The timer is
+the one internal timer that T, T*, P and GWT share (§10 T 注意点); ``$B#T`` is sent at
 time-up of ``T`` only.
 """
 
@@ -11,7 +13,7 @@ from typing import TYPE_CHECKING, Any
 
 from gateway.protocol.framing import TIMER_UP
 from gateway.protocol.reply_values import ClrState, InputsWithInp, OutputsWithClr, PortByte
-from gateway.sim.dispatch import handles
+from gateway.sim.dispatch import Refused, handles
 from gateway.sim.runtime import Timer
 
 if TYPE_CHECKING:
@@ -43,9 +45,9 @@ def inputs_inp(ctl: Controller, cmd: Any, now: float) -> InputsWithInp:
 
 @handles("CI", "CI{mt}")
 def inp(ctl: Controller, cmd: Any, now: float) -> int:
-    """§10 CI: the INP input of a motor; ``CI{mt}`` keeps the selection (§10 F)."""
+    """§10 CI (mode 2): the servo's INP of a motor; ``CI{mt}`` keeps the selection (§10 F)."""
     motor = int(cmd.mt) if cmd.motor is not None else ctl.selected
-    return int(ctl.rt.inp[motor - 1])
+    return int(ctl.axes[motor].inp(now))
 
 
 def _outputs(ctl: Controller, now: float) -> int:
@@ -126,8 +128,11 @@ def release_clr(ctl: Controller, cmd: Any, now: float) -> None:
 
 @handles("DS")
 def clr_state(ctl: Controller, cmd: Any, now: float) -> ClrState:
-    """§10 DS form III: the CLR outputs."""
-    return ctl.rt.clr
+    """§10 DS form III: the CLR outputs, forced or pulsing (§10 DS ①-⑥)."""
+    clr = ctl.rt.clr
+    return ClrState(
+        clr.clr1 or ctl.axes[1].servo.clr_on(now), clr.clr2 or ctl.axes[2].servo.clr_on(now)
+    )
 
 
 def _start_timer(ctl: Controller, tenths: int, now: float, *, report: bool) -> None:
@@ -167,6 +172,9 @@ def timer_left(ctl: Controller, cmd: Any, now: float) -> int:
 
 @handles("GWT{time}")
 def rewrite_timer(ctl: Controller, cmd: Any, now: float) -> None:
-    """§10 GWT: the counting timer goes on from a new remaining time."""
+    """§10 GWT: the counting timer goes on from a new remaining time; with the timer up (not
+    in use) it is a command error (§10 GWT 注意点)."""
     old = ctl.rt.timer
+    if old.timed_up(now):
+        raise Refused("GWT while the timer is up, i.e. not in use (§10 GWT)")
     _start_timer(ctl, int(cmd.time), now, report=old.report and not old.timed_up(now))

@@ -6,16 +6,25 @@ and in a mode the command does not allow. Here: the motor suffix selects the mot
 while EMS is ON a motion command is not executed (§11-4 "/?" example: "非常停止信号が ON して
 いる間は、動作コマンドは実行されず") and the EMS flag is latched; with the step-out error set,
 every motion command but homing ends in a limit error (§10 9 ⑦, §10 Q).
+
+Mode 1 (§7-4): targets are encoder counts, a position with |pp × PB / PA| >= 8,388,608 makes
+3, 4, 5, B, B+(-) end in a limit error without moving, and a move to a target is followed by
+the QJ adjustment where QJ asks for it. Mode 2: every motion is followed by the INP wait
+(§10 CI, DS ③). Plain motions run under the step-out detection QS asks for (``stepout``).
 """
 
 from __future__ import annotations
 
+import dataclasses
 from typing import TYPE_CHECKING, Any
 
-from gateway.sim.axis import Direction, HomingMethod, HomingSetup
+from gateway.sim.axis import Direction, FollowUp, HomingMethod, HomingSetup
 from gateway.sim.dispatch import Refused, handles
+from gateway.sim.encoder import ADJUST_UNIT, adjust_plan, within_rule
 from gateway.sim.flags import Error
 from gateway.sim.memory import POSITION_TABLE_SIZE
+from gateway.sim.servo import inp_plan
+from gateway.sim.stepout import guard_for
 
 if TYPE_CHECKING:
     from gateway.sim.controller import Controller
@@ -36,18 +45,54 @@ def _motor_for_motion(ctl: Controller, cmd: Any, *, homing: bool = False) -> int
     return motor
 
 
+def _outside_rule(ctl: Controller, position: int) -> bool:
+    """Mode 1: a position breaking |pp × PB / PA| < 8,388,608 is a limit error (§7-4 ②)."""
+    if ctl.settings.shared.mode != 1:
+        return False
+    m = ctl.settings.motors[ctl.selected]
+    if within_rule(position, m.pa, m.pb):
+        return False
+    ctl.flags.raise_(Error.LIMIT)
+    return True
+
+
+def _extras(ctl: Controller, motor: int, target: int | None = None) -> dict[str, Any]:
+    """The step-out detection of a plain motion and what follows it (mode 1 / 2)."""
+    shared = ctl.settings.shared
+    speeds = ctl.settings.speed(motor)
+    after: FollowUp | None = None
+    if shared.mode == 2:
+        after = FollowUp(inp_plan, speeds)
+    adjust = shared.adjust.motor1 if motor == 1 else shared.adjust.motor2
+    if shared.mode == 1 and adjust and target is not None:
+        axis = ctl.axes[motor]
+        wait, limit = shared.adjust_time * ADJUST_UNIT, shared.adjust_limit
+
+        def plan() -> Any:
+            return adjust_plan(axis.counts.encoder, lambda: axis.rest, target, wait, limit)
+
+        # §10 QJ form VIII: QJO speed data (0: Low speed), × 300 / OX like OL.
+        slow = dataclasses.replace(speeds, ol=shared.adjust_speed or speeds.ol)
+        after = FollowUp(plan, slow)
+    return {"guard": guard_for(ctl.settings, motor), "after": after}
+
+
 def _move_to(ctl: Controller, motor: int, target: int, now: float) -> None:
     """Absolute move: the distance is target - current, both in the format in force (§7-4)."""
     _move_by(ctl, motor, target - ctl.position(motor, now), now)
 
 
 def _move_by(ctl: Controller, motor: int, distance: int, now: float) -> None:
+    """A move of ``distance`` positions (mode 1: encoder counts) from where the motor is."""
     shared = ctl.settings.shared
     settings = ctl.settings.speed(motor)
+    axis = ctl.axes[motor]
+    target = axis.counter(now) + distance
     # N points serve one move and need trapezoid drive (§10 N 注意点).
     points = tuple(shared.points) if shared.points_on and settings.oc == 0 else ()
     shared.points_on = False
-    ctl.axes[motor].move(now, distance, settings, points)
+    pulses = axis.counts.pulses_to(axis.mechanical(now), target)
+    axis.move(now, pulses, settings, points, **_extras(ctl, motor, target))
 
 
 @handles("0", "0{mt}", "0A", "0A{mt}", "0H", "0H{mt}", "0R", "0R{mt}", "0Z", "0Q")
@@ -85,8 +130,9 @@ def go_origin(ctl: Controller, cmd: Any, now: float) -> None:
 def go_position_data(ctl: Controller, cmd: Any, now: float) -> None:
     """§10 3: absolute move to the position data of command 2."""
     motor = _motor_for_motion(ctl, cmd)
-    if motor is not None:
-        _move_to(ctl, motor, ctl.shown(ctl.settings.shared.position_data), now)
+    target = ctl.shown(ctl.settings.shared.position_data)
+    if motor is not None and not _outside_rule(ctl, target):
+        _move_to(ctl, motor, target, now)
 
 
 @handles("4", "4{mt}", "5", "5{mt}")
@@ -97,7 +143,7 @@ def step_position_data(ctl: Controller, cmd: Any, now: float) -> None:
     its absolute value, like B+(-) (docs/manual-notes.md "Incremental moves").
     """
     motor = _motor_for_motion(ctl, cmd)
-    if motor is None:
+    if motor is None or _outside_rule(ctl, ctl.shown(ctl.settings.shared.position_data)):
         return
     pulses = abs(ctl.shown(ctl.settings.shared.position_data))
     direction = Direction.CW if cmd.mnemonic == "4" else Direction.CCW
@@ -123,7 +169,8 @@ def go_entry(ctl: Controller, cmd: Any, now: float) -> None:
     if motor is None:
         return
     number = _entry_number(ctl, cmd)
-    _move_to(ctl, motor, ctl.shown(ctl.table[number]), now)
+    if not _outside_rule(ctl, ctl.shown(ctl.table[number])):
+        _move_to(ctl, motor, ctl.shown(ctl.table[number]), now)
 
 
 @handles("B{pn}{dir}", "B{pn}{mt}{dir}", "B{dir}", "B{mt}{dir}")
@@ -133,6 +180,8 @@ def step_entry(ctl: Controller, cmd: Any, now: float) -> None:
     if motor is None:
         return
     number = _entry_number(ctl, cmd)
+    if _outside_rule(ctl, ctl.shown(ctl.table[number])):
+        return
     pulses = abs(ctl.shown(ctl.table[number]))
     direction = Direction.CW if cmd.dir == "+" else Direction.CCW
     _move_by(ctl, motor, int(direction) * pulses, now)
@@ -144,7 +193,7 @@ def jog(ctl: Controller, cmd: Any, now: float) -> None:
     motor = _motor_for_motion(ctl, cmd)
     if motor is not None:
         direction = Direction.CW if cmd.mnemonic == "7" else Direction.CCW
-        ctl.axes[motor].jog(now, direction, ctl.settings.speed(motor))
+        ctl.axes[motor].jog(now, direction, ctl.settings.speed(motor), **_extras(ctl, motor))
 
 
 @handles("7*", "8*")
@@ -153,7 +202,7 @@ def single_pulse(ctl: Controller, cmd: Any, now: float) -> None:
     motor = _motor_for_motion(ctl, cmd)
     if motor is not None:
         direction = Direction.CW if cmd.key == "7*" else Direction.CCW
-        ctl.axes[motor].step(now, direction, ctl.settings.speed(motor))
+        ctl.axes[motor].step(now, direction, ctl.settings.speed(motor), **_extras(ctl, motor))
 
 
 def _moving(ctl: Controller, now: float) -> int | None:

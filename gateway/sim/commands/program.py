@@ -1,9 +1,9 @@
 """User-program commands from the host: §10 I, IR, G, GA, GS, GC, GE, GES, GSS, GN, GR, GW.
 
-Part I stores the program text (``I``), reads it back (``IR``), keeps buffers, counters and the
-autostart flag, and answers the state queries. Running a program (the interpreter) is simulator
-part II: until then ``G`` is refused as a command error, so nobody mistakes the simulator for
-one that ran their program (README, "What the simulator does not do yet").
+``I`` takes the program text, ``IR`` reads it back, ``G`` starts the interpreter
+(``gateway.sim.program``), ``GS``/``GC``/``GE``/``GES`` pause, resume and end it, ``GSS`` and
+``GN`` report its state and step, ``GR``/``GW`` read and write its buffers and counters, and
+``GA`` sets the autostart that runs it at power-on (``start_program``, called at boot).
 """
 
 from __future__ import annotations
@@ -11,7 +11,9 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 from gateway.protocol.reply_values import PortByte, ProgramState
+from gateway.sim.commands.motion import stop as stop_motion
 from gateway.sim.dispatch import Refused, handles
+from gateway.sim.program import Machine
 
 if TYPE_CHECKING:
     from gateway.sim.controller import Controller
@@ -29,10 +31,30 @@ def program_text(ctl: Controller, cmd: Any, now: float) -> str:
     return ctl.rt.program
 
 
+def start_program(ctl: Controller, label: str | None, now: float) -> None:
+    """Run the RAM program from the start, or after ``/G{label}`` (§10 G, §10 GA).
+
+    ``Refused`` (a command error) when RAM holds no program or the label is not in it
+    (§10 G 注意点). Nothing else is checked here: statements are checked when they run.
+    """
+    text = ctl.rt.program
+    if not text:
+        raise Refused("no user program in RAM (§10 G 注意点)")
+    machine = Machine(text)
+    step = 1
+    if label is not None:
+        found = machine.labels.get(label)
+        if found is None:
+            raise Refused(f"no /G{label} in the program (§10 G 注意点)")
+        step = found + 1  # §10 G (II): from the statement after the label
+    ctl.rt.machine = machine
+    machine.start(ctl, step, now)
+
+
 @handles("G", "G{lb}")
 def run_program(ctl: Controller, cmd: Any, now: float) -> None:
-    """§10 G: not simulated before part II; refused so that no one believes it ran."""
-    raise Refused("user programs run in simulator part II")
+    """§10 G: run the RAM program (refused while one runs: §11-3 5., by the rules)."""
+    start_program(ctl, str(cmd.lb) if cmd.key == "G{lb}" else None, now)
 
 
 @handles("GAS", "GAR")
@@ -51,14 +73,26 @@ def autostart(ctl: Controller, cmd: Any, now: float) -> int:
 
 @handles("GS", "GC", "GE", "GES")
 def program_control(ctl: Controller, cmd: Any, now: float) -> None:
-    """§10 GS, GC, GE, GES: pause, resume, end; with no program running nothing changes."""
+    """§10 GS, GC, GE, GES: pause, resume, end; with no program running nothing changes.
+
+    GS pauses at a statement boundary: a wait under way (a motion, the timer) runs to its end
+    first, then nothing more runs until GC (§10 GS "動作の区切りまで実行した後"). GE ends the
+    program and leaves a motion running (§10 GE); GES also stops the motor at once (§10 GES).
+    """
     state = ctl.rt.program_state
+    machine = ctl.rt.machine
     if cmd.key == "GS" and state is ProgramState.RUNNING:
         ctl.rt.program_state = ProgramState.PAUSED
     elif cmd.key == "GC" and state is ProgramState.PAUSED:
         ctl.rt.program_state = ProgramState.RUNNING
+        if machine is not None:
+            machine.resume(now)
     elif cmd.key in ("GE", "GES") and ctl.rt.program_running:
+        if machine is not None:
+            machine.end(ctl)
         ctl.rt.program_state = ProgramState.ENDED
+        if cmd.key == "GES":
+            stop_motion(ctl, cmd, now)
 
 
 @handles("GSS")
@@ -72,7 +106,10 @@ def program_state(ctl: Controller, cmd: Any, now: float) -> ProgramState:
 
 @handles("GN")
 def program_step(ctl: Controller, cmd: Any, now: float) -> int:
-    """§10 GN: the position of the next statement (0 with no program run)."""
+    """§10 GN: the '/' count of the statement that runs next (0 before any G).
+
+    After ``/END`` it names the ``/END``; after a command error, the statement that failed.
+    """
     return ctl.rt.step
 
 

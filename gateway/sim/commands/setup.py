@@ -1,8 +1,9 @@
 """Homing and sensor set-up, encoder and step-out settings, sensor reads, error output.
 
 §10 0B, 0Q (pd, D, W), 0S, 0X, 0Z (n, D), EA, PA, PB, Q, QD, QE, QJ, QJT, QJA, QJO, QS, QSE,
-RD, CL, CLM, K, KC. Part I stores and reports the encoder and step-out settings; detecting
-step-out and adjusting (modes 0-2) is simulator part II.
+RD, CL, CLM, K, KC. What the encoder and step-out settings do to a motion is the business of
+``encoder``, ``stepout`` and ``servo`` (read when a motion starts); ``K``'s outputs are turned
+ON by the controller (``error_output``).
 """
 
 from __future__ import annotations
@@ -58,6 +59,7 @@ def set_motor_value(ctl: Controller, cmd: Any, now: float) -> None:
     """A per-motor value of the selected motor (§10 F list)."""
     name, param = _MOTOR_SETTERS[cmd.key]
     setattr(_motor(ctl), name, int(getattr(cmd, param)))
+    ctl.configure_axes(now)  # PA, PB: the encoder's ratio from here on
 
 
 @handles(*_MOTOR_QUERIES)
@@ -130,7 +132,7 @@ def step_out_detected(ctl: Controller, cmd: Any, now: float) -> int:
 
 @handles("RD")
 def clear_step_out(ctl: Controller, cmd: Any, now: float) -> None:
-    """§10 RD (mode 1): clear the step-out error."""
+    """§10 RD (mode 1): clear the step-out error; moves start again from the encoder count."""
     ctl.flags.step_out = False
 
 

@@ -81,8 +81,9 @@ def selected(ctl: Controller, cmd: Any, now: float) -> int:
 
 @handles("E{mode}")
 def set_mode(ctl: Controller, cmd: Any, now: float) -> None:
-    """§10 E: the operating mode (both motors)."""
+    """§10 E: the operating mode (both motors); mode 1 counts encoder pulses (§7-4)."""
     ctl.settings.shared.mode = int(cmd.mode)
+    ctl.configure_axes(now)
 
 
 @handles("E")

@@ -19,6 +19,18 @@ if TYPE_CHECKING:
     from gateway.sim.controller import Controller
 
 
+def write_eeprom(ctl: Controller, key: str) -> float:
+    """Write the ``AW`` or ``DW`` area now; the seconds the write takes (``$B#*`` then).
+
+    The program's ``/WAW`` and ``/WDW`` use it too, and wait that long instead (§12 /WAW).
+    """
+    if key == "DW":
+        ctl.eeprom.write("dw", ctl.settings.dw_image())
+    else:
+        ctl.eeprom.write("aw", list(ctl.table))
+    return WRITE_SECONDS[key]
+
+
 def _written(ctl: Controller, key: str, now: float) -> None:
     ctl.later(WRITE_SECONDS[key], EEPROM_DONE, now)
 
@@ -26,15 +38,13 @@ def _written(ctl: Controller, key: str, now: float) -> None:
 @handles("DW")
 def write_settings(ctl: Controller, cmd: Any, now: float) -> None:
     """§10 DW: every DW target of both motors to EEPROM."""
-    ctl.eeprom.write("dw", ctl.settings.dw_image())
-    _written(ctl, "DW", now)
+    ctl.later(write_eeprom(ctl, "DW"), EEPROM_DONE, now)
 
 
 @handles("AW")
 def write_table(ctl: Controller, cmd: Any, now: float) -> None:
     """§10 AW: the 1000 A entries to EEPROM."""
-    ctl.eeprom.write("aw", list(ctl.table))
-    _written(ctl, "AW", now)
+    ctl.later(write_eeprom(ctl, "AW"), EEPROM_DONE, now)
 
 
 @handles("IW")
