@@ -6,8 +6,12 @@
     │   ├── CommandFormError ..... a known mnemonic, but the text fits none of its forms
     │   ├── ParameterError ....... a parameter breaks its rule (digit count, range, characters)
     │   └── ProgramError ......... a user program breaks a rule of chapters 11-12 (names the step)
-    └── ProtocolError ............ bytes from the device are not what the manual allows
-        └── ReplyFormatError ..... a reply's data part does not decode as its command's reply
+    ├── ProtocolError ............ bytes from the device are not what the manual allows
+    │   └── ReplyFormatError ..... a reply's data part does not decode as its command's reply
+    └── ServiceError ............. what the service layer refuses or could not do (issue 5)
+        ├── NotFoundError ........ no loop, controller, axis or operation by that id or name
+        ├── ConflictError ........ the resource is busy: moving, leased by another client
+        └── DeviceError .......... the device did not answer, or its answer leaves doubt
 
 Every InvalidInputError carries ``field`` (the parameter or input it is about, or None when
 it is about the whole text) and ``rule`` (the manual's rule, in words), so that the API layer
@@ -18,12 +22,16 @@ from __future__ import annotations
 
 __all__ = [
     "CommandFormError",
+    "ConflictError",
+    "DeviceError",
     "GatewayError",
     "InvalidInputError",
+    "NotFoundError",
     "ParameterError",
     "ProgramError",
     "ProtocolError",
     "ReplyFormatError",
+    "ServiceError",
     "UnknownCommandError",
 ]
 
@@ -73,3 +81,42 @@ class ProtocolError(GatewayError):
 
 class ReplyFormatError(ProtocolError):
     """A reply's data part does not decode as the reply its command defines."""
+
+
+class ServiceError(GatewayError):
+    """Base of what the service layer refuses or could not carry out."""
+
+
+class NotFoundError(ServiceError):
+    """No resource of ``kind`` ('loop', 'controller', 'axis', 'operation') is called ``ident``."""
+
+    def __init__(self, kind: str, ident: str, *, known: tuple[str, ...] = ()) -> None:
+        hint = f"; known: {', '.join(known[:20])}" if known else ""
+        super().__init__(f"no {kind} {ident!r}{hint}")
+        self.kind = kind
+        self.ident = ident
+
+
+class ConflictError(ServiceError):
+    """The resource cannot take the request now (moving, leased by another client, busy).
+
+    ``field`` names the request field or resource the conflict is about, ``holder`` the client
+    holding a lease (None when the conflict is not a lease).
+    """
+
+    def __init__(self, message: str, *, field: str | None = None, holder: str | None = None):
+        super().__init__(message)
+        self.field = field
+        self.holder = holder
+
+
+class DeviceError(ServiceError):
+    """The device did not answer (time-out), or what came back leaves the outcome in doubt.
+
+    ``outcome`` is the scheduler's verdict ('not_done' or 'unknown'), ``detail`` what was seen.
+    """
+
+    def __init__(self, message: str, *, outcome: str = "unknown", timeout: bool = False) -> None:
+        super().__init__(message)
+        self.outcome = outcome
+        self.timeout = timeout

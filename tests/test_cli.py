@@ -6,11 +6,12 @@ import asyncio
 import json
 import os
 import signal
+import socket
 import sys
 from pathlib import Path
 
+import httpx
 import pytest
-import serial  # type: ignore[import-untyped]
 
 from gateway.cli import main
 
@@ -71,30 +72,66 @@ def test_parse_in_program_context_and_with_positions(capsys: pytest.CaptureFixtu
     assert json.loads(capsys.readouterr().out)["wire"] == "2+1000"
 
 
-async def test_run_serves_the_simulated_loop_on_tcp(tmp_path: Path) -> None:
-    """`make run` (until the API exists): the simulator on TCP, reachable as socket://."""
+def _free_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return int(probe.getsockname()[1])
+
+
+async def test_make_run_serves_the_api_on_a_simulated_loop(tmp_path: Path) -> None:
+    """`make run` is `serve --simulate` on 127.0.0.1:8233 (here on a free port): no file,
+    no token on loopback, the three simulated controllers' axes listed by name."""
+    makefile = (Path(__file__).parents[1] / "Makefile").read_text()
+    assert "rc233-gateway serve --simulate --host 127.0.0.1 --port 8233" in makefile
     env = {**os.environ, "XDG_DATA_HOME": str(tmp_path)}  # keep the EEPROM files out of $HOME
     gateway = Path(sys.executable).parent / "rc233-gateway"
+    port = _free_port()
     process = await asyncio.create_subprocess_exec(
-        str(gateway), "run", stdout=asyncio.subprocess.PIPE, env=env
-    )
-    assert process.stdout is not None
+        str(gateway), "serve", "--simulate", "--port", str(port),
+        stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.PIPE, env=env,
+    )  # fmt: skip
+    assert process.stderr is not None
     try:
         lines: list[str] = []
-        while not any("listening on socket://127.0.0.1:5233" in line for line in lines):
-            line = await asyncio.wait_for(process.stdout.readline(), 20)
+        while not any("Application startup complete" in line for line in lines):
+            line = await asyncio.wait_for(process.stderr.readline(), 30)
             assert line, "".join(lines)
             lines.append(line.decode())
-
-        def talk() -> tuple[bytes, bytes]:
-            port = serial.serial_for_url("socket://127.0.0.1:5233", timeout=5)
-            with port:
-                port.write(b"$1\r")
-                status = port.read(5)
-                port.write(b"$3OH\r")
-                return status, port.read(9)
-
-        assert await asyncio.to_thread(talk) == (b">$10\r", b">$305000\r")
+        assert any("AUTHENTICATION IS OFF" in line for line in lines), "".join(lines)
+        async with httpx.AsyncClient(base_url=f"http://127.0.0.1:{port}") as client:
+            reply = await client.get("/api/v1/axes")
+        assert reply.status_code == 200
+        names = [axis["name"] for axis in reply.json()]
+        assert names == ["x", "y", "z", "theta", "gripper", "conveyor"]
     finally:
-        process.send_signal(signal.SIGTERM)
-        assert await asyncio.wait_for(process.wait(), 20) == 0
+        process.send_signal(signal.SIGINT)
+        assert await asyncio.wait_for(process.wait(), 30) == 0
+
+
+def test_serve_refuses_an_open_api_off_loopback(capsys: pytest.CaptureFixture[str]) -> None:
+    # --simulate off loopback without tokens: auth stays on, and nobody could use it.
+    assert main(["serve", "--simulate", "--host", "0.0.0.0"]) == 2
+    err = capsys.readouterr().err
+    assert "--host 0.0.0.0: no API tokens are configured, so nobody could use the API" in err
+    assert main(["serve", "--simulate", "--host", "0.0.0.0", "--no-auth"]) == 2
+    err = capsys.readouterr().err
+    assert "--no-auth is only allowed when bound to loopback, not '0.0.0.0'" in err
+
+
+def test_serve_stops_on_a_bad_configuration(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    cell = tmp_path / "cell.toml"
+    cell.write_text('[[loops]]\nname = "main"\nport = "/dev/null"\nbaud = 4800\n'
+                    '[[loops.controllers]]\nbody = "1"\n')  # fmt: skip
+    assert main(["serve", "--config", str(cell)]) == 2
+    err = capsys.readouterr().err
+    assert f"{cell}: 1 problem(s)" in err and "loops[0]: Value error, baud 4800" in err
+
+
+def test_token_prints_the_configuration_lines(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["token", "--name", "mes", "--role", "operator", "--token", "123456"]) == 0
+    out = capsys.readouterr().out
+    # sha256("123456"), as any sha256 tool prints it
+    assert 'sha256 = "8d969eef6ecad3c29a3a629280e686cf0c3f5d5a86aff3ca12020c923adc6c92"' in out
+    assert 'role = "operator"' in out

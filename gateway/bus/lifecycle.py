@@ -93,6 +93,9 @@ class LoopLifecycle:
         self._retry_at: float | None = None
         self._task: asyncio.Task[None] | None = None
         self._first_attempt = asyncio.Event()
+        #: set while no transaction is in flight (graceful shutdown waits on it)
+        self._idle = asyncio.Event()
+        self._idle.set()
 
     def snapshot(self) -> CountersSnapshot:
         """The loop's counters now."""
@@ -212,6 +215,7 @@ class LoopLifecycle:
         runner = TransactionRunner(
             self._core, request.body, request.commands, request.motor, request.program
         )
+        self._idle.clear()
         try:
             results, exchanges = await runner.run()
         except LinkLost as exc:
@@ -225,6 +229,8 @@ class LoopLifecycle:
             log.exception("loop %s: transaction failed", self.name)
             self._fail(request, exc)
             return
+        finally:
+            self._idle.set()
         result = TransactionResult(
             self.name, request.body, tuple(results), started, self.clock(), exchanges
         )

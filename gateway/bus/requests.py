@@ -32,7 +32,8 @@ __all__ = [
 ]
 
 #: The forms that stop motion or a program and outrank everything queued (DESIGN invariant 8):
-#: S (slow-down stop), SS (immediate stop), GES (end the program and stop) - §10 S, SS, GES.
+#: S (immediate stop), SS (slow down to Low speed, then stop), GES (end the program and stop)
+#: - §10 S, SS, GES.
 STOP_KEYS = frozenset({"S", "SS", "GES"})
 
 

@@ -38,11 +38,18 @@ class LoopScheduler(LoopLifecycle):
             self._task = asyncio.get_running_loop().create_task(self._run(), name=self.name)
         await self._first_attempt.wait()
 
-    async def close(self) -> None:
-        """Stop: queued and later requests fail with ``LoopDown``; the port is closed."""
+    async def close(self, *, drain: float = 0.0) -> None:
+        """Stop: queued and later requests fail with ``LoopDown``; the port is closed.
+
+        ``drain``: real seconds to let the transaction in flight finish first (graceful
+        shutdown: a move half-sent is worse than one refused).
+        """
         self.state = LinkState.CLOSED
         self.cause = "the scheduler was closed"
         self._fail_queued()
+        if drain > 0:
+            with contextlib.suppress(TimeoutError):
+                await asyncio.wait_for(self._idle.wait(), drain)
         if self._task is not None:
             self._task.cancel()
             with contextlib.suppress(asyncio.CancelledError):

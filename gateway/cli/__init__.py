@@ -7,6 +7,8 @@ import json
 import sys
 from collections.abc import Sequence
 
+from gateway.cli.documents import add_document_parsers
+from gateway.cli.serve import add_serve_parser
 from gateway.errors import InvalidInputError
 from gateway.protocol.describe import catalog_json, catalog_table
 from gateway.protocol.params import PositionFormat
@@ -14,10 +16,6 @@ from gateway.protocol.registry import Context, parse
 from gateway.sim.cli import add_sim_parser
 
 __all__ = ["main"]
-
-#: What `rc233-gateway run` (and so `make run`) serves until the API exists (issue 5): the
-#: simulated loop on TCP, where any serial program or `socket://` URL reaches it.
-RUN_SIM_ARGS = ("--tcp", "127.0.0.1:5233", "--control", "127.0.0.1:5234", "--bodies", "1,2,3")
 
 
 def _catalog(args: argparse.Namespace) -> int:
@@ -52,17 +50,6 @@ def _parse(args: argparse.Namespace) -> int:
     return 0
 
 
-def _run(_: argparse.Namespace) -> int:
-    print("rc233-gateway: the REST/WebSocket API comes with issue 5; until then `make run`")
-    print("serves the simulated RC-233 loop (bodies 1, 2, 3) on TCP, as a serial device server")
-    print("would. Reach it with pyserial's socket://127.0.0.1:5233 at 9600 bps, e.g.")
-    print("  .venv/bin/python -c \"import serial; s = serial.serial_for_url(")
-    print("      'socket://127.0.0.1:5233', timeout=1); s.write(b'$1\\r'); print(s.read(5))\"")
-    print("and drive its faults (EMS, sensors, power, line cut) on the JSON-lines control port")
-    print("127.0.0.1:5234 (README: 'The simulator'). Ctrl-C stops it.", flush=True)
-    return main(["sim", *RUN_SIM_ARGS])
-
-
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of every subcommand."""
     parser = argparse.ArgumentParser(prog="rc233-gateway", description=__doc__)
@@ -76,8 +63,8 @@ def build_parser() -> argparse.ArgumentParser:
     prs.add_argument("--positions", choices=[f.value for f in PositionFormat])
     prs.set_defaults(func=_parse)
     add_sim_parser(sub)
-    run = sub.add_parser("run", help="what `make run` starts")
-    run.set_defaults(func=_run)
+    add_serve_parser(sub)
+    add_document_parsers(sub)
     return parser
 
 

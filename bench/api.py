@@ -1,0 +1,349 @@
+"""What the API costs: cached axis reads against a trivial route, and WebSocket fan-out lag.
+
+A server process runs the real app (``create_app``) on an in-process simulated loop (three
+controllers, real-time line timing, polling as in production) under uvicorn on 127.0.0.1;
+this process is the clients. Two figures (issue 5, "Benchmark"):
+
+* ``http``: requests per second of ``GET /api/v1/axes/{id}`` (the cached state, no line
+  traffic) against ``GET /api/v1/bench/trivial`` (a route that returns a constant) on the
+  same server and middleware, with ``--concurrency`` httpx clients on keep-alive
+  connections; ``ratio`` = axes / trivial (target >= 0.7). The server's CPU time per request
+  is printed too: the client process may be what limits the request rate.
+* ``ws``: ``--clients`` WebSocket clients subscribed to one axis while the server changes that
+  axis ``--rate`` times a second (a position reply fed to the gateway's state cache, as the
+  scheduler feeds it); the lag of each delivered change is the client's receive time minus
+  the message's ``time`` (the server's wall clock when the feed published it): p50, p99 and
+  max in milliseconds (target p99 <= 50 ms), and whether every client got every change.
+
+    .venv/bin/python bench/api.py                         # 5 s each, 1,000 clients
+    .venv/bin/python bench/api.py --quick                 # what make bench runs
+
+It prints one JSON object.
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import gc
+import json
+import os
+import socket
+import statistics
+import subprocess
+import sys
+import time
+from collections.abc import Callable
+from typing import Any
+
+import httpx
+from websockets.client import ClientProtocol
+from websockets.frames import Frame, Opcode
+from websockets.http11 import Response
+from websockets.uri import parse_uri
+
+AXIS = "x"  # sim.1.1
+MARKER = 99_999  # the position that ends a fan-out run
+
+
+# --------------------------------------------------------------------------- the server
+
+
+async def serve(rate_limit: int) -> None:
+    """The server process: the app on a simulated loop; prints its port, runs until killed."""
+    import uvicorn
+    from fastapi import FastAPI
+
+    from gateway.api import ws
+    from gateway.api.app import API_PREFIX, create_app
+    from gateway.api.security import AuthConfig
+    from gateway.bus.events import ReplyObserved
+    from gateway.protocol.registry import parse
+    from gateway.service.gateway import Gateway
+    from gateway.service.simulated import SIM_LOOP, simulated_config
+    from gateway.sim.cli import build_loop
+    from gateway.sim.clock import SimClock
+    from gateway.sim.serve import SimPort
+    from gateway.transport.pipe import PipeTransport
+
+    sim = build_loop(["1", "2", "3"], clock=SimClock(1.0))
+    config = simulated_config(("1", "2", "3"))
+    transport = PipeTransport(lambda: SimPort(sim))
+    gateway = Gateway(config, transports={SIM_LOOP: transport})
+    app: FastAPI = create_app(gateway, auth=AuthConfig(no_auth=True))
+
+    @app.get(f"{API_PREFIX}/bench/trivial")
+    async def trivial() -> dict[str, bool]:
+        return {"ok": True}
+
+    async def inject(rate: float, seconds: float) -> None:
+        # Positions the poller never reads back (it reads motor 1 when idle, every second,
+        # and finds the simulator's 0): distinct values a client can count. The last one,
+        # MARKER, tells the clients the run is over.
+        command, start = parse("61"), time.monotonic()
+        due = start
+        for pulses in [*range(100_001, 100_001 + round(rate * seconds)), MARKER]:
+            reply = ReplyObserved(
+                loop=SIM_LOOP, time=time.monotonic(), body="1", command=command, value=pulses
+            )
+            gateway.state.handle(reply)
+            due += 1 / rate
+            await asyncio.sleep(max(0.0, due - time.monotonic()))
+
+    tasks: set[asyncio.Task[None]] = set()
+
+    @app.post(f"{API_PREFIX}/bench/inject")
+    async def start_injecting(rate: float, seconds: float, freeze: bool) -> dict[str, bool]:
+        if freeze:  # what a server can do once started: no GC pass scans the startup heap
+            gc.collect()
+            gc.freeze()
+        task = asyncio.create_task(inject(min(rate, rate_limit), seconds))
+        tasks.add(task)
+        task.add_done_callback(tasks.discard)
+        return {"started": True}
+
+    @app.get(f"{API_PREFIX}/bench/cpu")
+    async def cpu() -> dict[str, float]:
+        usage = os.times()
+        return {"cpu": usage.user + usage.system}
+
+    sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    sock.bind(("127.0.0.1", 0))
+    sock.listen(4096)
+    options = ws.uvicorn_ws_options(config.ws)
+    server = uvicorn.Server(uvicorn.Config(app, log_level="warning", backlog=4096, **options))
+    print(sock.getsockname()[1], flush=True)
+    await server.serve(sockets=[sock])
+
+
+# --------------------------------------------------------------------------- HTTP
+
+
+async def rate_of(client: httpx.AsyncClient, path: str, seconds: float, workers: int) -> float:
+    """Requests per second of ``path`` with ``workers`` concurrent requesters."""
+    count, end = 0, time.perf_counter() + seconds
+
+    async def worker() -> None:
+        nonlocal count
+        while time.perf_counter() < end:
+            response = await client.get(path)
+            assert response.status_code == 200, response.text
+            count += 1
+
+    start = time.perf_counter()
+    await asyncio.gather(*(worker() for _ in range(workers)))
+    return count / (time.perf_counter() - start)
+
+
+async def http_bench(base: str, seconds: float, workers: int) -> dict[str, Any]:
+    limits = httpx.Limits(max_connections=workers, max_keepalive_connections=workers)
+    async with httpx.AsyncClient(base_url=base, limits=limits, timeout=30) as client:
+        axis = (await client.get(f"/axes/{AXIS}")).json()
+        assert axis["id"] == "sim.1.1", axis
+        await rate_of(client, "/bench/trivial", 0.5, workers)  # warm up
+        figures: dict[str, list[float]] = {"trivial": [], "axes": []}
+        cpu: dict[str, float] = {"trivial": 0.0, "axes": 0.0}
+        counts: dict[str, float] = {"trivial": 0.0, "axes": 0.0}
+        for _ in range(2):  # alternate, so that drift weighs on both
+            for name, path in (("trivial", "/bench/trivial"), ("axes", f"/axes/{AXIS}")):
+                before = (await client.get("/bench/cpu")).json()["cpu"]
+                rps = await rate_of(client, path, seconds / 4, workers)
+                after = (await client.get("/bench/cpu")).json()["cpu"]
+                figures[name].append(rps)
+                cpu[name] += after - before
+                counts[name] += rps * seconds / 4
+    trivial, axes = statistics.mean(figures["trivial"]), statistics.mean(figures["axes"])
+    return {
+        "trivial_rps": round(trivial),
+        "axes_rps": round(axes),
+        "ratio": round(axes / trivial, 3),
+        "target_ratio": 0.7,
+        "server_cpu_us_per_request": {
+            k: round(1e6 * cpu[k] / counts[k], 1) for k in ("trivial", "axes")
+        },
+        "concurrency": workers,
+    }
+
+
+# --------------------------------------------------------------------------- WebSocket
+
+
+async def server_cpu(client: httpx.AsyncClient) -> float:
+    """CPU seconds the server process used so far."""
+    return float((await client.get("/bench/cpu")).json()["cpu"])
+
+
+def own_cpu() -> float:
+    """CPU seconds this process used so far."""
+    usage = os.times()
+    return usage.user + usage.system
+
+
+class LightClient(asyncio.Protocol):
+    """A WebSocket client on the websockets library's sans-I/O protocol: stamps each frame
+    when its bytes arrive and does little else, so that 1,000 of them in one process cost
+    the server's CPU as little as possible (the benchmark measures the server)."""
+
+    def __init__(self, uri: str, on_text: Callable[[float, bytes], None]) -> None:
+        self.protocol = ClientProtocol(parse_uri(uri), max_size=None)
+        self.on_text = on_text
+        self.opened: asyncio.Future[None] = asyncio.get_running_loop().create_future()
+        self.transport: asyncio.Transport | None = None
+
+    def connection_made(self, transport: asyncio.BaseTransport) -> None:
+        assert isinstance(transport, asyncio.Transport)
+        self.transport = transport
+        self.protocol.send_request(self.protocol.connect())
+        self.flush()
+
+    def data_received(self, data: bytes) -> None:
+        now = time.time()
+        self.protocol.receive_data(data)
+        for event in self.protocol.events_received():
+            if isinstance(event, Response) and not self.opened.done():
+                self.opened.set_result(None)
+            elif isinstance(event, Frame) and event.opcode is Opcode.TEXT:
+                self.on_text(now, bytes(event.data))
+        self.flush()  # pongs to the server's pings
+
+    def send_text(self, text: str) -> None:
+        self.protocol.send_text(text.encode())
+        self.flush()
+
+    def flush(self) -> None:
+        assert self.transport is not None
+        for data in self.protocol.data_to_send():
+            if data:
+                self.transport.write(data)
+
+    def close(self) -> None:
+        if self.transport is not None:
+            self.transport.close()
+
+
+async def ws_bench(
+    base: str, port: int, clients: int, rate: float, seconds: float, freeze: bool
+) -> dict[str, Any]:
+    loop = asyncio.get_running_loop()
+    url = f"ws://127.0.0.1:{port}/api/v1/ws"
+    arrived: list[tuple[int, float, bytes]] = []  # decoded after the run: no JSON meanwhile
+    snapshots, finished = asyncio.Event(), asyncio.Event()
+    subscribed = done = 0
+    marker = f'"position":{MARKER},'.encode()
+
+    def receiver(i: int) -> Callable[[float, bytes], None]:
+        def on_text(now: float, data: bytes) -> None:
+            nonlocal subscribed, done
+            if snapshots.is_set():
+                arrived.append((i, now, data))
+                if marker in data:
+                    done += 1
+                    if done == clients:
+                        finished.set()
+            elif json.loads(data)["type"] == "snapshot":
+                subscribed += 1
+                if subscribed == clients:
+                    snapshots.set()
+
+        return on_text
+
+    conns: list[LightClient] = []
+    for start in range(0, clients, 100):
+        batch = range(start, min(start + 100, clients))
+        made = await asyncio.gather(
+            *(
+                loop.create_connection(lambda i=i: LightClient(url, receiver(i)), "127.0.0.1", port)
+                for i in batch
+            )
+        )
+        conns += [protocol for _, protocol in made]
+        await asyncio.gather(*(c.opened for c in conns[start:]))
+    for conn in conns:
+        conn.send_text(json.dumps({"type": "subscribe", "topics": [f"axis:{AXIS}"]}))
+    await asyncio.wait_for(snapshots.wait(), 60)
+    async with httpx.AsyncClient(base_url=base) as client:
+        server_before, own_before, start = await server_cpu(client), own_cpu(), time.monotonic()
+        params = {"rate": rate, "seconds": seconds, "freeze": freeze}
+        response = await client.post("/bench/inject", params=params)
+        assert response.status_code == 200, response.text
+        expected = round(rate * seconds)
+        await asyncio.wait_for(finished.wait(), seconds + 60)
+        elapsed = time.monotonic() - start
+        server_share = (await server_cpu(client) - server_before) / elapsed
+        client_share = (own_cpu() - own_before) / elapsed
+    for conn in conns:
+        conn.close()
+    lags, counts = [], [0] * clients
+    for i, now, data in arrived:
+        message = json.loads(data)
+        if message["type"] == "change" and message["data"]["position"] > MARKER:
+            lags.append(now - message["time"])
+            counts[i] += 1
+    lags_ms = sorted(1000 * lag for lag in lags)
+    q = statistics.quantiles(lags_ms, n=100) if len(lags_ms) > 1 else [0.0] * 99
+    return {
+        "clients": clients,
+        "changes_per_second": rate,
+        "server_gc_freeze": freeze,
+        "delivered": len(lags_ms),
+        "every_client_got_every_change": min(counts) >= expected,
+        "lag_ms_p50": round(q[49], 2),
+        "lag_ms_p99": round(q[98], 2),
+        "lag_ms_max": round(lags_ms[-1], 2) if lags_ms else None,
+        "target_p99_ms": 50,
+        "cpu_share": {"server": round(server_share, 2), "clients": round(client_share, 2)},
+    }
+
+
+# --------------------------------------------------------------------------- main
+
+
+async def main(args: argparse.Namespace) -> dict[str, Any]:
+    child = subprocess.Popen(
+        [sys.executable, __file__, "--serve", "--rate", str(args.rate)],
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        assert child.stdout is not None
+        port = int(await asyncio.to_thread(child.stdout.readline))
+        base = f"http://127.0.0.1:{port}/api/v1"
+        async with httpx.AsyncClient(base_url=base, timeout=30) as client:
+            deadline = time.monotonic() + 30  # the loop opens, the poller reads the axes
+            while (await client.get(f"/axes/{AXIS}")).json().get("position") is None:
+                assert time.monotonic() < deadline, "the simulated loop did not come up"
+                await asyncio.sleep(0.1)
+        http = await http_bench(base, args.seconds, args.concurrency)
+        wsf = await ws_bench(base, port, args.clients, args.rate, args.seconds, args.gc_freeze)
+    finally:
+        child.terminate()
+        child.wait(10)
+    return {"seconds": args.seconds, "http": http, "websocket": wsf, "cpus": os.cpu_count()}
+
+
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--seconds", type=float, default=5.0, help="per figure (real seconds)")
+    parser.add_argument("--clients", type=int, default=1000, help="WebSocket clients")
+    parser.add_argument("--rate", type=float, default=20.0, help="axis changes a second")
+    parser.add_argument("--concurrency", type=int, default=16, help="HTTP requests in flight")
+    parser.add_argument(
+        "--gc-freeze",
+        action="store_true",
+        help="the server freezes its heap (gc.freeze) before the fan-out run",
+    )
+    parser.add_argument("--quick", action="store_true", help="1 s, 200 clients (make bench)")
+    parser.add_argument("--serve", action="store_true", help=argparse.SUPPRESS)
+    args = parser.parse_args(argv)
+    if args.quick:
+        args.seconds, args.clients = 1.0, 200
+    return args
+
+
+if __name__ == "__main__":
+    arguments = parse_args()
+    if arguments.serve:
+        asyncio.run(serve(rate_limit=10_000))
+    else:
+        print(json.dumps(asyncio.run(main(arguments)), indent=2))

@@ -1,0 +1,105 @@
+"""The FastAPI application: routers, error handlers, security, audit, metrics, WebSocket.
+
+``create_app(gateway, no_auth=...)`` wires the service objects onto ``app.state`` (the
+routers read them from there) and mounts every router under ``/api/v1``; ``/healthz``,
+``/readyz`` and ``/metrics`` stay at the root for probes and scrapers. The app's lifespan
+starts the gateway's loops and, on shutdown, stops accepting requests, lets each loop's
+transaction in flight finish and closes the ports (issue 5, "Graceful shutdown").
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import AsyncIterator
+from contextlib import asynccontextmanager
+
+from fastapi import FastAPI
+from fastapi.middleware.cors import CORSMiddleware
+
+from gateway.api import routes_axes, routes_controllers, routes_loops, routes_operations, ws
+from gateway.api.audit import AuditLog, install_audit
+from gateway.api.health import install_operations
+from gateway.api.idempotency import install_idempotency
+from gateway.api.problems import install_problem_handlers
+from gateway.api.security import AuthConfig, install_security
+from gateway.service.axes import AxisService
+from gateway.service.controllers import ControllerService
+from gateway.service.feed import Feed
+from gateway.service.gateway import Gateway
+from gateway.service.leases import Leases
+from gateway.service.operations import Operations
+
+__all__ = ["API_PREFIX", "create_app"]
+
+log = logging.getLogger("gateway.api")
+
+API_PREFIX = "/api/v1"
+
+DESCRIPTION = """\
+REST and WebSocket access to RORZE RC-233 controllers on RS-232C loops.
+
+* Reads (`GET`) answer from the gateway's state cache: no line traffic unless `?fresh=true`.
+* Motion requests answer `202` with an operation (`GET /operations/{id}`), or wait for the end
+  with `?wait=true&timeout=s`. An `Idempotency-Key` header makes a retried POST return the
+  first result instead of acting again.
+* Errors are `application/problem+json` (RFC 9457) naming the field and the rule.
+* Roles: viewer (read, subscribe), operator (motion, settings, leases), admin (raw, EEPROM,
+  programs, mode, framing, line trace). Bearer tokens.
+* The WebSocket `/api/v1/ws` publishes axis, controller and loop state and events; its
+  message schema is `openapi/websocket.json`.
+"""
+
+
+def create_app(gateway: Gateway, *, auth: AuthConfig) -> FastAPI:
+    """The application serving ``gateway`` with ``auth`` (tokens, or no-auth mode)."""
+    audit = AuditLog(gateway.config.audit_log)
+    leases = Leases()
+    operations = Operations(gateway)
+    feed = Feed(gateway.topology, gateway.state, gateway.events, gateway.config.ws)
+
+    @asynccontextmanager
+    async def lifespan(app: FastAPI) -> AsyncIterator[None]:
+        await gateway.start()
+        try:
+            yield
+        finally:
+            feed.close()
+            operations.close()
+            await gateway.close()
+            await audit.close()
+
+    app = FastAPI(
+        title="rc233-gateway",
+        version="0.1.0",
+        description=DESCRIPTION,
+        lifespan=lifespan,
+        openapi_url=f"{API_PREFIX}/openapi.json",
+        docs_url=f"{API_PREFIX}/docs",
+        redoc_url=None,
+    )
+    app.state.gateway = gateway
+    app.state.leases = leases
+    app.state.operations = operations
+    app.state.axes = AxisService(gateway, operations, leases)
+    app.state.controllers = ControllerService(gateway, leases, operations)
+    for module in (routes_axes, routes_operations, routes_controllers, routes_loops, ws):
+        app.include_router(module.router, prefix=API_PREFIX)
+    ws.install_ws(app, feed)
+    # Middleware added later wraps what was added before: the problem handlers innermost,
+    # then security, idempotency, audit, metrics, and CORS outermost so that error
+    # responses carry the CORS headers too.
+    install_problem_handlers(app)
+    install_security(app, auth)
+    install_idempotency(app)
+    install_audit(app, audit)
+    install_operations(app, gateway)
+    origins = list(gateway.config.security.cors_origins)
+    if origins:
+        app.add_middleware(
+            CORSMiddleware,
+            allow_origins=origins,
+            allow_methods=["GET", "POST", "PUT", "DELETE"],
+            allow_headers=["Authorization", "Content-Type", "Idempotency-Key"],
+            expose_headers=["Location", "Retry-After", "Idempotent-Replayed"],
+        )
+    return app

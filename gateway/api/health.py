@@ -1,0 +1,111 @@
+"""The operations routes at the root, open without a token (issue 5, "Operations").
+
+``/healthz``: the process answers (200). ``/readyz``: 200 when every loop is up, else a 503
+problem naming the loops that are down (``loops_down``). ``/metrics``: Prometheus text.
+``install_operations(app, gateway)`` sets them up with the HTTP metrics middleware.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from fastapi import APIRouter, FastAPI, Request
+from fastapi.responses import Response
+from pydantic import BaseModel
+
+from gateway.api.metrics import CONTENT_TYPE, HttpMetricsMiddleware, Metrics, MetricsSource, WsStats
+from gateway.api.problems import PROBLEM_MEDIA_TYPE, Problem, problem_response, problem_type
+from gateway.bus.lifecycle import LinkState
+
+__all__ = ["Health", "Readiness", "install_operations", "router"]
+
+router = APIRouter(tags=["operations"])
+
+
+class Health(BaseModel):
+    """The process is alive."""
+
+    status: str = "ok"
+
+
+class Readiness(BaseModel):
+    """Every loop is up: each loop's line state."""
+
+    status: str = "ready"
+    loops: dict[str, str]
+
+
+def _metrics(request: Request) -> Metrics:
+    metrics = request.app.state.metrics
+    assert isinstance(metrics, Metrics), "install_operations(app, gateway) was not called"
+    return metrics
+
+
+@router.get("/healthz", response_model=Health)
+async def healthz() -> Health:
+    """200 while the process answers (no line traffic)."""
+    return Health()
+
+
+_NOT_READY: dict[int | str, dict[str, Any]] = {
+    503: {
+        "model": Problem,
+        "description": "A loop is down (``loops_down`` names them)",
+        "content": {PROBLEM_MEDIA_TYPE: {"schema": {"$ref": "#/components/schemas/Problem"}}},
+    }
+}
+
+
+@router.get("/readyz", response_model=Readiness, responses=_NOT_READY)
+async def readyz(request: Request) -> Any:
+    """200 when every loop is up; else 503 naming the loops that are down."""
+    gateway = _metrics(request).gateway
+    if gateway is None:
+        states: dict[str, str] = {}
+        down = ["(no gateway)"]
+    else:
+        states = {name: str(loop.state) for name, loop in sorted(gateway.schedulers.items())}
+        down = [
+            name
+            for name, loop in sorted(gateway.schedulers.items())
+            if loop.state is not LinkState.UP
+        ]
+    if gateway is not None and gateway.ready() and not down:
+        return Readiness(loops=states)
+    causes = []
+    if gateway is not None:
+        for name in down:
+            cause = getattr(gateway.schedulers[name], "cause", "")
+            causes.append(f"{name} ({states[name]}{': ' + cause if cause else ''})")
+    detail = "not ready; loops down: " + (", ".join(causes) or ", ".join(down) or "none named")
+    problem = Problem(
+        type=problem_type("not-ready"),
+        title="Not ready",
+        status=503,
+        detail=detail,
+        loops_down=down,
+    )
+    return problem_response(problem, request, {"Retry-After": "1"})
+
+
+@router.get(
+    "/metrics",
+    response_class=Response,
+    responses={200: {"content": {CONTENT_TYPE: {"schema": {"type": "string"}}}}},
+)
+async def metrics(request: Request) -> Response:
+    """Prometheus text exposition format 0.0.4."""
+    return Response(_metrics(request).render(), media_type=CONTENT_TYPE)
+
+
+def install_operations(
+    app: FastAPI, gateway: MetricsSource | None, *, ws: WsStats | None = None
+) -> Metrics:
+    """Serve ``/healthz``, ``/readyz`` and ``/metrics`` and count HTTP requests; the
+    ``Metrics`` (its ``ws`` is the ``WsStats`` for the WebSocket hub). Call it last of the
+    ``install_*`` functions so its middleware is the outermost and times everything."""
+    metrics = Metrics(gateway, ws=ws)
+    app.state.metrics = metrics
+    app.add_middleware(HttpMetricsMiddleware, metrics=metrics)
+    app.include_router(router)
+    return metrics

@@ -1,0 +1,244 @@
+"""``Idempotency-Key``: a retried POST returns the first result instead of acting again.
+
+An ASGI middleware, so it covers every POST route of the app. The first response to a key is
+stored per client (the ``Authorization`` header, hashed: one token, one client), key, method
+and path, with a hash of the query and body; a retry with the same key:
+
+* gets the stored status, headers and body again, with ``Idempotent-Replayed: true``;
+* waits for the first request when that is still running (a motion waiting for its end);
+* with another body or query is refused with 422 naming the header (the key was reused for a
+  different request), and nothing is done.
+
+Only responses after which the request may have acted are stored: 2xx, 5xx except 503
+(``504``: the device did not answer, the move may have happened). 4xx and 503 mean nothing was
+done (refused, leased, loop down: the outcome is ``not_done``), so a retry may act then. The
+store is bounded: ``capacity`` keys (oldest dropped first) for ``ttl`` seconds.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import hashlib
+import time
+from collections import OrderedDict
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+from fastapi import FastAPI
+from starlette.types import ASGIApp, Message, Receive, Scope, Send
+
+from gateway.api.problems import Problem, problem_response, problem_type
+
+__all__ = [
+    "HEADER",
+    "REPLAYED_HEADER",
+    "IdempotencyMiddleware",
+    "IdempotencyStore",
+    "install_idempotency",
+]
+
+HEADER = "Idempotency-Key"
+REPLAYED_HEADER = "Idempotent-Replayed"
+#: Keys are opaque to the gateway: printable ASCII, at most this long (a UUID is 36).
+MAX_KEY_LENGTH = 255
+
+
+@dataclass
+class Entry:
+    """One key: the request's fingerprint and, once answered, the stored response."""
+
+    fingerprint: str
+    created: float
+    done: asyncio.Event = field(default_factory=asyncio.Event)
+    status: int | None = None  # None: not stored (the first request left nothing to replay)
+    headers: list[tuple[bytes, bytes]] = field(default_factory=list)
+    body: bytes = b""
+
+
+def _stored(status: int) -> bool:
+    """Whether a response may have acted, so a retry must get it rather than act again."""
+    return status < 400 or (status >= 500 and status != 503)
+
+
+class IdempotencyStore:
+    """Bounded, expiring store of the first responses (``clock``: seconds, injectable)."""
+
+    def __init__(
+        self,
+        capacity: int = 10_000,
+        ttl: float = 86_400.0,
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
+        self.capacity = capacity
+        self.ttl = ttl
+        self._clock = clock
+        self._entries: OrderedDict[tuple[str, ...], Entry] = OrderedDict()
+
+    def __len__(self) -> int:
+        return len(self._entries)
+
+    def get(self, key: tuple[str, ...]) -> Entry | None:
+        """The live entry of ``key``."""
+        self._expire()
+        return self._entries.get(key)
+
+    def begin(self, key: tuple[str, ...], fingerprint: str) -> Entry:
+        """A new entry for a first request."""
+        entry = Entry(fingerprint, self._clock())
+        self._entries[key] = entry
+        while len(self._entries) > self.capacity:
+            self._entries.popitem(last=False)
+        return entry
+
+    def forget(self, key: tuple[str, ...], entry: Entry) -> None:
+        """Drop ``entry`` (its response is not stored: a retry acts again)."""
+        if self._entries.get(key) is entry:
+            del self._entries[key]
+
+    def _expire(self) -> None:
+        limit = self._clock() - self.ttl
+        while self._entries:
+            oldest = next(iter(self._entries.values()))
+            if oldest.created > limit:
+                break
+            self._entries.popitem(last=False)
+
+
+def _header(scope: Scope, name: bytes) -> str | None:
+    for key, value in scope.get("headers", []):
+        if key.lower() == name:
+            return str(value.decode("latin-1"))
+    return None
+
+
+def _invalid(detail: str, rule: str) -> Problem:
+    return Problem(
+        type=problem_type("invalid-input"),
+        title="Invalid input",
+        status=422,
+        detail=detail,
+        field=f"header.{HEADER}",
+        rule=rule,
+    )
+
+
+class IdempotencyMiddleware:
+    """Replays the stored response of a POST retried with the same ``Idempotency-Key``."""
+
+    def __init__(self, app: ASGIApp, store: IdempotencyStore) -> None:
+        self.app = app
+        self.store = store
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        """Serve one ASGI connection: POSTs with a key are stored or replayed."""
+        if scope["type"] != "http" or scope.get("method") != "POST":
+            await self.app(scope, receive, send)
+            return
+        key = _header(scope, b"idempotency-key")
+        if key is None:
+            await self.app(scope, receive, send)
+            return
+        if not 1 <= len(key) <= MAX_KEY_LENGTH or not key.isascii() or not key.isprintable():
+            problem = _invalid(
+                f"{HEADER} {key[:40]!r} is not a valid key",
+                f"{HEADER}: 1-{MAX_KEY_LENGTH} printable ASCII characters",
+            )
+            await problem_response(problem)(scope, receive, send)
+            return
+        body, more = await _read_body(receive)
+        client = hashlib.sha256((_header(scope, b"authorization") or "").encode()).hexdigest()
+        ident = (client, key, "POST", str(scope.get("path", "")))
+        digest = hashlib.sha256(scope.get("query_string", b"") + b"\x00" + body).hexdigest()
+        entry = self.store.get(ident)
+        while entry is not None:
+            if entry.fingerprint != digest:
+                problem = _invalid(
+                    f"{HEADER} {key!r} was used for a different request to this path",
+                    f"one {HEADER} per request: a retry repeats the query and body exactly",
+                )
+                await problem_response(problem)(scope, receive, send)
+                return
+            await entry.done.wait()
+            if entry.status is not None:
+                await _replay(entry, send)
+                return
+            entry = self.store.get(ident)  # the first was not stored: this one acts
+        entry = self.store.begin(ident, digest)
+        try:
+            await self._first(scope, _replaying(more, receive), send, entry)
+        finally:
+            if entry.status is None:
+                self.store.forget(ident, entry)
+            entry.done.set()
+
+    async def _first(self, scope: Scope, receive: Receive, send: Send, entry: Entry) -> None:
+        status = 0
+        headers: list[tuple[bytes, bytes]] = []
+        chunks: list[bytes] = []
+
+        async def capture(message: Message) -> None:
+            nonlocal status, headers
+            if message["type"] == "http.response.start":
+                status = int(message["status"])
+                headers = list(message.get("headers", []))
+            elif message["type"] == "http.response.body":
+                chunks.append(bytes(message.get("body", b"")))
+                if not message.get("more_body", False) and _stored(status):
+                    entry.headers, entry.body = headers, b"".join(chunks)
+                    entry.status = status
+            await send(message)
+
+        await self.app(scope, receive, capture)
+
+
+async def _read_body(receive: Receive) -> tuple[bytes, list[Message]]:
+    """The whole request body, and the messages read (to hand on unchanged)."""
+    messages: list[Message] = []
+    parts: list[bytes] = []
+    while True:
+        message = await receive()
+        messages.append(message)
+        if message["type"] != "http.request":
+            break
+        parts.append(bytes(message.get("body", b"")))
+        if not message.get("more_body", False):
+            break
+    return b"".join(parts), messages
+
+
+def _replaying(read: list[Message], receive: Receive) -> Receive:
+    """A ``receive`` that gives the app the messages already read, then the real ones."""
+    pending = list(read)
+
+    async def again() -> Message:
+        if pending:
+            return pending.pop(0)
+        return await receive()
+
+    return again
+
+
+async def _replay(entry: Entry, send: Send) -> None:
+    headers = [(k, v) for k, v in entry.headers if k.lower() != REPLAYED_HEADER.lower().encode()]
+    headers.append((REPLAYED_HEADER.lower().encode(), b"true"))
+    assert entry.status is not None
+    await send({"type": "http.response.start", "status": entry.status, "headers": headers})
+    await send({"type": "http.response.body", "body": entry.body, "more_body": False})
+
+
+def install_idempotency(
+    app: FastAPI,
+    *,
+    capacity: int = 10_000,
+    ttl: float = 86_400.0,
+    clock: Callable[[], float] = time.monotonic,
+) -> IdempotencyStore:
+    """Make every POST of ``app`` honour ``Idempotency-Key``; the store (``app.state.idempotency``).
+
+    Install it after ``install_problem_handlers`` and before the audit middleware, so that a
+    replay is audited too and the replayed response is the first one as the client saw it.
+    """
+    store = IdempotencyStore(capacity, ttl, clock)
+    app.add_middleware(IdempotencyMiddleware, store=store)
+    app.state.idempotency = store
+    return store

@@ -1,0 +1,63 @@
+"""Routes of the loops (issue 5): views, raw command text, the line trace.
+
+``POST /loops/{loop}/raw`` (admin) takes command text for one controller of the loop and
+parses it through the catalog first: text that fits no form is refused 422 with the reason
+(the field and rule of the parser) and never reaches the wire.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+from fastapi import APIRouter, Path, Query, Request
+
+from gateway.api.ctl_deps import Admin, Service, Viewer, note_sent
+from gateway.api.problems import PROBLEM_RESPONSES
+from gateway.service.controllers import TraceSettings, TraceView
+from gateway.service.ctl_models import RawRequest
+from gateway.service.ctl_replies import CommandResponse
+from gateway.service.views import LoopView
+
+__all__ = ["router"]
+
+router = APIRouter(tags=["loops"], responses=PROBLEM_RESPONSES)
+
+Loop = Annotated[str, Path(description="the loop's name", examples=["sim"])]
+
+
+@router.get("/loops", response_model=list[LoopView])
+async def list_loops(service: Service, _: Viewer) -> list[LoopView]:
+    """Every loop: link state, queue depth, counters, controllers."""
+    return service.loops()
+
+
+@router.get("/loops/{loop}", response_model=LoopView)
+async def get_loop(loop: Loop, service: Service, _: Viewer) -> LoopView:
+    """One loop."""
+    return service.loop(loop)
+
+
+@router.post("/loops/{loop}/raw", response_model=CommandResponse)
+async def post_raw(
+    loop: Loop, body: RawRequest, request: Request, service: Service, who: Admin
+) -> CommandResponse:
+    """Send command text (between body number and CR) to a controller of the loop, parsed
+    through the catalog first; answered like ``/controllers/{id}/commands``."""
+    return note_sent(request, await service.raw(loop, body, holder=who.name))
+
+
+@router.get("/loops/{loop}/trace", response_model=TraceView)
+async def get_trace(
+    loop: Loop,
+    service: Service,
+    _: Admin,
+    controller: Annotated[str | None, Query(description="only this controller")] = None,
+) -> TraceView:
+    """The line trace of the loop (bounded; off until switched on with PUT)."""
+    return service.trace(loop, controller)
+
+
+@router.put("/loops/{loop}/trace", response_model=TraceView)
+async def put_trace(loop: Loop, body: TraceSettings, service: Service, _: Admin) -> TraceView:
+    """Switch the line trace of the loop (whole loop, or some controllers)."""
+    return service.set_trace(loop, body)

@@ -1,0 +1,139 @@
+"""Routes of a controller's user program (issue 5): upload, read back, run, pause, resume,
+stop, status, buffers and counters, autostart (§10 G ... IW).
+
+Upload and autostart need the admin role; running, pausing, resuming, stopping and writing
+buffers or counters the operator role; reading the program or its state the operator role too
+(they use the line). Included by ``routes_controllers``.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal
+
+from fastapi import APIRouter, Path, Request
+
+from gateway.api.ctl_deps import Admin, Id, Operator, Service, note_sent
+from gateway.api.problems import PROBLEM_RESPONSES
+from gateway.service.ctl_models import (
+    Autostart,
+    BufferWrite,
+    CounterWrite,
+    ProgramData,
+    ProgramRun,
+    ProgramStatus,
+    ProgramStop,
+    ProgramText,
+    ProgramWrite,
+)
+from gateway.service.ctl_replies import CommandResponse
+
+__all__ = ["router"]
+
+router = APIRouter(tags=["programs"], responses=PROBLEM_RESPONSES)
+
+Buffer = Annotated[Literal["A", "B", "C", "D", "E", "F"], Path(description="data buffer A-F")]
+Counter = Annotated[int, Path(ge=1, le=2, description="counter 1 or 2")]
+
+
+@router.put("/controllers/{id}/program", response_model=CommandResponse)
+async def put_program(
+    id: Id, body: ProgramWrite, request: Request, service: Service, who: Admin
+) -> CommandResponse:
+    """Validate the program text (chapters 11-12: a broken rule is 422 naming the step, the
+    field and the rule; nothing is sent) and upload it (``I``, the text, CR)."""
+    ref = service.controller(id)
+    response = await service.programs.upload(ref, body.text, holder=who.name)
+    return note_sent(request, response)
+
+
+@router.get("/controllers/{id}/program", response_model=ProgramText)
+async def get_program(id: Id, service: Service, _: Operator) -> ProgramText:
+    """The program in the controller's RAM, read back with ``IR``."""
+    return await service.programs.text(service.controller(id))
+
+
+@router.post("/controllers/{id}/program/run", response_model=CommandResponse)
+async def run_program(
+    id: Id, request: Request, service: Service, who: Operator, body: ProgramRun | None = None
+) -> CommandResponse:
+    """Run the program from its start (``G``) or from a label (``G{lb}``)."""
+    ref = service.controller(id)
+    label = body.label if body is not None else None
+    return note_sent(request, await service.programs.run(ref, label, holder=who.name))
+
+
+@router.post("/controllers/{id}/program/pause", response_model=CommandResponse)
+async def pause_program(
+    id: Id, request: Request, service: Service, who: Operator
+) -> CommandResponse:
+    """Pause the running program (``GS``)."""
+    ref = service.controller(id)
+    return note_sent(request, await service.programs.pause(ref, holder=who.name))
+
+
+@router.post("/controllers/{id}/program/resume", response_model=CommandResponse)
+async def resume_program(
+    id: Id, request: Request, service: Service, who: Operator
+) -> CommandResponse:
+    """Resume a paused program (``GC``)."""
+    ref = service.controller(id)
+    return note_sent(request, await service.programs.resume(ref, holder=who.name))
+
+
+@router.post("/controllers/{id}/program/stop", response_model=CommandResponse)
+async def stop_program(
+    id: Id, request: Request, service: Service, who: Operator, body: ProgramStop | None = None
+) -> CommandResponse:
+    """End the program: ``GE`` (mode end), or ``GES`` (mode immediate: the motor stops too,
+    sent at stop priority). Never refused by a lease."""
+    ref = service.controller(id)
+    mode = body.mode if body is not None else "end"
+    return note_sent(request, await service.programs.stop(ref, mode, holder=who.name))
+
+
+@router.get("/controllers/{id}/program/status", response_model=ProgramStatus)
+async def program_status(id: Id, service: Service, _: Operator) -> ProgramStatus:
+    """The program's state (``GSS``) and next step (``GN``)."""
+    return await service.programs.status(service.controller(id))
+
+
+@router.get("/controllers/{id}/program/data", response_model=ProgramData)
+async def program_data(id: Id, service: Service, _: Operator) -> ProgramData:
+    """Data buffers A-F and counters 1, 2 (``GR``)."""
+    return await service.programs.data(service.controller(id))
+
+
+@router.put("/controllers/{id}/program/buffers/{buffer}", response_model=CommandResponse)
+async def put_buffer(
+    id: Id, buffer: Buffer, body: BufferWrite, request: Request, service: Service, who: Operator
+) -> CommandResponse:
+    """Write one data buffer byte (``GW{bf}{du}{dl}``)."""
+    ref = service.controller(id)
+    response = await service.programs.set_buffer(ref, buffer, body.value, holder=who.name)
+    return note_sent(request, response)
+
+
+@router.put("/controllers/{id}/program/counters/{counter}", response_model=CommandResponse)
+async def put_counter(
+    id: Id, counter: Counter, body: CounterWrite, request: Request, service: Service, who: Operator
+) -> CommandResponse:
+    """Write one counter (``GW{ct}{dt}``)."""
+    ref = service.controller(id)
+    response = await service.programs.set_counter(ref, counter, body.value, holder=who.name)
+    return note_sent(request, response)
+
+
+@router.get("/controllers/{id}/program/autostart", response_model=Autostart)
+async def get_autostart(id: Id, service: Service, _: Operator) -> Autostart:
+    """Whether the program starts at power-on (``GA``)."""
+    return await service.programs.autostart(service.controller(id))
+
+
+@router.put("/controllers/{id}/program/autostart", response_model=CommandResponse)
+async def put_autostart(
+    id: Id, body: Autostart, request: Request, service: Service, who: Admin
+) -> CommandResponse:
+    """Switch autostart (``GAS``/``GAR``, written to the EEPROM at once; admin)."""
+    ref = service.controller(id)
+    response = await service.programs.set_autostart(ref, body.enabled, holder=who.name)
+    return note_sent(request, response)

@@ -1,0 +1,72 @@
+"""``rc233-gateway openapi`` and ``token``: the published API documents, and token hashes.
+
+The OpenAPI document and the WebSocket message schema are generated from the app itself, so
+they cannot drift from it; ``openapi/`` holds the generated files and a test fails when they
+are stale (tests/api/test_openapi_files.py).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+from typing import Any
+
+from gateway.api.app import create_app
+from gateway.api.security import AuthConfig, TokenBook, hash_token, new_token
+from gateway.api.ws_messages import ws_schema
+from gateway.service.gateway import Gateway
+from gateway.service.simulated import SIM_LOOP, simulated_config
+from gateway.transport.pipe import PipeTransport
+
+__all__ = ["add_document_parsers", "documents", "render"]
+
+OPENAPI_FILE = "openapi.json"
+WS_FILE = "websocket.json"
+
+
+def _never() -> Any:
+    raise OSError("the documents' app never opens a line")
+
+
+def documents() -> dict[str, dict[str, Any]]:
+    """File name -> document: the OpenAPI document and the WebSocket message schema."""
+    gateway = Gateway(simulated_config(), transports={SIM_LOOP: PipeTransport(_never)})
+    app = create_app(gateway, auth=AuthConfig(TokenBook()))
+    return {OPENAPI_FILE: app.openapi(), WS_FILE: ws_schema()}
+
+
+def render(document: dict[str, Any]) -> str:
+    """The text a document is stored as (stable: sorted keys, 2 spaces, final newline)."""
+    return json.dumps(document, indent=2, sort_keys=True, ensure_ascii=False) + "\n"
+
+
+def _openapi(args: argparse.Namespace) -> int:
+    out: Path = args.out
+    out.mkdir(parents=True, exist_ok=True)
+    for name, document in documents().items():
+        (out / name).write_text(render(document), encoding="utf-8")
+        print(f"wrote {out / name}")
+    return 0
+
+
+def _token(args: argparse.Namespace) -> int:
+    token = args.token or new_token()
+    print(f"token:  {token}")
+    print("config: [[security.tokens]]")
+    print(f'        name = "{args.name}"')
+    print(f'        role = "{args.role}"')
+    print(f'        sha256 = "{hash_token(token)}"')
+    return 0
+
+
+def add_document_parsers(subparsers: Any) -> None:
+    """Add ``openapi`` and ``token`` to the subcommands."""
+    doc = subparsers.add_parser("openapi", help="write openapi/openapi.json and websocket.json")
+    doc.add_argument("--out", type=Path, default=Path("openapi"), help="default ./openapi")
+    doc.set_defaults(func=_openapi)
+    tok = subparsers.add_parser("token", help="make an API token and its configuration lines")
+    tok.add_argument("--name", default="mes", help="the name the audit log shows")
+    tok.add_argument("--role", choices=["viewer", "operator", "admin"], default="operator")
+    tok.add_argument("--token", help="hash this token instead of making a new one")
+    tok.set_defaults(func=_token)

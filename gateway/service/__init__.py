@@ -1,0 +1,1 @@
+"""Axes and controllers as users see them: configuration, names, views, operations, leases."""

@@ -1,0 +1,312 @@
+"""Axes as users act on them: move, home, jog, step, stop, speed, errors (issue 5).
+
+Every check a request can fail is made before anything is sent: the lease (the axis and its
+controller), the controller online and not moving (§2: its two motors never move together; a
+motion command while one moves is ignored with a command error, §9-1 注意), units, the soft
+limits and the position counter (§7-4). Stops skip all of it: **a stop is never refused**.
+
+Commands (§10, as the catalog defines them; per-motor commands go with ``motor=`` and the
+scheduler sends ``F`` when the selection differs):
+
+=============== =====================================================================
+move absolute   ``2{pp}`` then ``3`` (position data, then move to it)
+move relative   ``2{|d|}`` then ``4`` (CW, d > 0) or ``5`` (CCW, d < 0)
+home            ``0`` / ``0A`` / ``0H`` / ``0R``; ``0Z`` has no motor form: ``F{mt}`` first
+jog             ``7`` (CW) / ``8`` (CCW) at Low speed, then ``H`` for High speed (§10 H);
+                a jog already running in that direction only gets ``H`` / ``L``
+step            ``7*`` / ``8*`` (one pulse)
+stop            ``S`` immediate, ``SS`` decelerate to Low speed then stop (§10 S, SS)
+=============== =====================================================================
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from gateway.bus.requests import TransactionResult
+from gateway.bus.state_types import ErrorKind
+from gateway.errors import ConflictError, DeviceError, InvalidInputError
+from gateway.protocol.models import Command
+from gateway.protocol.registry import parse
+from gateway.protocol.speeds import SpeedSettings
+from gateway.service.axis_speeds import (
+    QUERIES,
+    QUERIES_WHILE_MOVING,
+    SpeedChange,
+    SpeedView,
+    settings_from,
+    speed_view,
+    update_commands,
+)
+from gateway.service.axis_types import (
+    Direction,
+    HomeMethod,
+    JogSpeed,
+    StopMode,
+    StopResult,
+    Unit,
+)
+from gateway.service.gateway import Gateway
+from gateway.service.leases import Leases
+from gateway.service.operation_types import frames_of
+from gateway.service.operations import Operation, Operations
+from gateway.service.position_format import PositionFormats, check_target, position_data
+from gateway.service.topology import AxisRef
+from gateway.service.views import AxisView, axis_view
+
+__all__ = [
+    "AxisService",
+    "Direction",
+    "HomeMethod",
+    "JogSpeed",
+    "StopMode",
+    "StopResult",
+    "Unit",
+]
+
+
+_STOP = {StopMode.IMMEDIATE: "S", StopMode.DECELERATE: "SS"}
+_JOG = {Direction.CW: "7", Direction.CCW: "8"}
+_STEP = {Direction.CW: "7*", Direction.CCW: "8*"}
+
+
+class AxisService:
+    """Every action on an axis; the API's routes call these."""
+
+    def __init__(self, gateway: Gateway, operations: Operations, leases: Leases) -> None:
+        self.gateway = gateway
+        self.operations = operations
+        self.leases = leases
+        self.formats = PositionFormats(gateway)
+        self._speeds: dict[str, SpeedSettings] = {}  # last read, per axis id (OC while moving)
+
+    # ------------------------------------------------------------------ reading
+
+    def ref(self, ident: str) -> AxisRef:
+        """The axis with id or name ``ident`` (``NotFoundError`` otherwise)."""
+        return self.gateway.topology.axis(ident)
+
+    def view(self, ident: str) -> AxisView:
+        """The cached view of one axis (no line traffic)."""
+        ref = self.ref(ident)
+        return axis_view(ref, self.gateway.state.axis(ref.loop, ref.body, ref.motor))
+
+    def views(self) -> list[AxisView]:
+        """Every axis, cached."""
+        state = self.gateway.state
+        return [
+            axis_view(a, state.axis(a.loop, a.body, a.motor)) for a in self.gateway.topology.axes()
+        ]
+
+    async def fresh(self, ident: str) -> AxisView:
+        """Read status and position now (``""``, ``6{mt}``) and return the new view."""
+        ref = self.ref(ident)
+        await self._submit(ref, [parse(""), parse(f"6{ref.motor}")], motor=None)
+        return self.view(ref.id)
+
+    def position(self, ident: str) -> int | None:
+        """The cached position of an axis in pulses."""
+        ref = self.ref(ident)
+        return self.gateway.state.axis(ref.loop, ref.body, ref.motor).position
+
+    # ------------------------------------------------------------------ motion
+
+    async def move(
+        self, ident: str, position: float, *, relative: bool, unit: Unit, holder: str
+    ) -> Operation:
+        """Move to ``position`` (or by it, ``relative``) in pulses or the axis's user unit."""
+        ref = self.ref(ident)
+        self._may_act(ref, holder)
+        if unit is Unit.USER:
+            value = ref.to_pulses(position, "body.position")
+        elif float(position).is_integer():
+            value = int(position)
+        else:
+            raise InvalidInputError(
+                f"{position} is not a whole number of pulses",
+                field="body.position",
+                rule="a position in pulses is a whole number",
+            )
+        fmt = await self.formats.get(ref.loop, ref.body)
+        if relative:
+            if value == 0:
+                raise InvalidInputError(
+                    "a relative move of 0 pulses",
+                    field="body.position",
+                    rule="|distance| >= 1 pulse",
+                )
+            target = await self._current(ref) + value
+        else:
+            target = value
+        check_target(ref, target, fmt)
+        if relative:
+            moves = [position_data(abs(value), fmt), parse("4" if value > 0 else "5")]
+        else:
+            moves = [position_data(target, fmt), parse("3")]
+        request = {"position": position, "relative": relative, "unit": unit.value}
+        return await self._run(ref, "move", request, moves, target=target, holder=holder)
+
+    async def home(self, ident: str, method: HomeMethod, *, holder: str) -> Operation:
+        """Search the origin with ``method``; the position is 0 there (§10 0 ... 0Z)."""
+        ref = self.ref(ident)
+        self._may_act(ref, holder)
+        if method is HomeMethod.Z_PHASE:  # 0Z acts on the selected motor, no MT form (§10 0Z)
+            commands = [parse(f"F{ref.motor}"), parse("0Z")]
+        else:
+            commands = [parse(method.value)]
+        request = {"method": method.value}
+        return await self._run(ref, "home", request, commands, target=0, holder=holder)
+
+    async def jog(
+        self, ident: str, direction: Direction, speed: JogSpeed, *, holder: str
+    ) -> Operation:
+        """Turn until stopped (or a limit): ``7``/``8`` at Low speed, ``H`` for High."""
+        ref = self.ref(ident)
+        self.leases.check(holder, (ref.id, ref.controller_id))
+        active = self.operations.active(ref.loop, ref.body)
+        if (
+            active is not None
+            and active.kind == "jog"
+            and active.axis.id == ref.id
+            and active.request.get("direction") == direction.value
+        ):
+            # The same jog: only its speed changes (§10 H, L work while turning).
+            await self._submit(ref, [parse("H" if speed is JogSpeed.HIGH else "L")], motor=None)
+            active.request["speed"] = speed.value
+            return active
+        self._may_act(ref, holder)
+        commands = [parse(_JOG[direction])]
+        if speed is JogSpeed.HIGH:
+            commands.append(parse("H"))
+        request = {"direction": direction.value, "speed": speed.value}
+        return await self._run(ref, "jog", request, commands, holder=holder)
+
+    async def step(self, ident: str, direction: Direction, *, holder: str) -> Operation:
+        """Move one pulse (``7*`` / ``8*``), inside the soft limits."""
+        ref = self.ref(ident)
+        self._may_act(ref, holder)
+        fmt = await self.formats.get(ref.loop, ref.body)
+        target = await self._current(ref) + (1 if direction is Direction.CW else -1)
+        check_target(ref, target, fmt)
+        request = {"direction": direction.value}
+        commands = [parse(_STEP[direction])]
+        return await self._run(ref, "step", request, commands, target=target, holder=holder)
+
+    async def stop(self, ident: str, mode: StopMode) -> StopResult:
+        """Stop: never refused (no lease, moving or state check). ``S``/``SS`` act on the
+        selected motor, which is the moving one (``F`` is refused while moving, §10 F)."""
+        ref = self.ref(ident)
+        command = _STOP[mode]
+        op = self.operations.note_stop(ref.loop, ref.body)
+        result = await self.gateway.scheduler(ref.loop).stop(ref.body, command)
+        return StopResult(
+            axis=ref.id,
+            command=command,
+            outcome=result.outcome,
+            frames=frames_of(result, self._prefix(ref)),
+            operation=op.id if op is not None else None,
+        )
+
+    # ------------------------------------------------------------------ speed
+
+    async def speed(self, ident: str) -> SpeedView:
+        """Read OH, OL, OS, OC and OX; OC only while stopped (§10 OC), else the last read."""
+        ref = self.ref(ident)
+        moving = self.gateway.state.controller(ref.loop, ref.body).moving
+        names = QUERIES_WHILE_MOVING if moving else QUERIES
+        known = self._speeds.get(ref.id)
+        if moving and known is None:
+            raise ConflictError(
+                f"controller {ref.controller_id} is moving and OC of {ref.id} was never read: "
+                "OC cannot be read while a motor moves (§10 OC)",
+                field="oc",
+            )
+        result = await self._submit(ref, [parse(n) for n in names], motor=ref.motor)
+        settings = settings_from(result, names, known.oc if known else None)
+        self._speeds[ref.id] = settings
+        return speed_view(ref.id, settings, oc_cached=moving)
+
+    async def set_speed(self, ident: str, change: SpeedChange, *, holder: str) -> SpeedView:
+        """Set speed data after checking ranges and the S-curve rule (§7-1), then read back."""
+        ref = self.ref(ident)
+        self._may_act(ref, holder, what="change the speed of")
+        current = await self.speed(ref.id)
+        now = SpeedSettings(current.oh, current.ol, current.os, current.oc, current.ox)
+        _, commands = update_commands(now, change)
+        reads = [parse(n) for n in QUERIES]
+        result = await self._submit(ref, [*commands, *reads], motor=ref.motor)
+        settings = settings_from(result, QUERIES)
+        self._speeds[ref.id] = settings
+        view = speed_view(ref.id, settings)
+        view.frames = frames_of(result, self._prefix(ref))[: len(commands)]
+        return view
+
+    # ------------------------------------------------------------------ errors
+
+    def acknowledge(self, ident: str, kinds: list[ErrorKind] | None) -> AxisView:
+        """The client has seen the axis's latched errors (those of ``kinds``; all if None)."""
+        ref = self.ref(ident)
+        now = self.gateway.scheduler(ref.loop).clock()
+        self.gateway.state.acknowledge(ref.loop, ref.body, now, motor=ref.motor, kinds=kinds)
+        return self.view(ref.id)
+
+    # ------------------------------------------------------------------ helpers
+
+    def _prefix(self, ref: AxisRef) -> str:
+        return self.gateway.topology.controller(ref.controller_id).series.value
+
+    def _may_act(self, ref: AxisRef, holder: str, what: str = "move") -> None:
+        """Leases, the controller online and not moving; nothing sent yet."""
+        self.leases.check(holder, (ref.id, ref.controller_id))
+        ctl = self.gateway.state.controller(ref.loop, ref.body)
+        if ctl.online is False:
+            raise DeviceError(
+                f"controller {ref.controller_id} does not answer (offline); nothing was sent",
+                outcome="not_done",
+                timeout=True,
+            )
+        active = self.operations.active(ref.loop, ref.body)
+        if active is not None or ctl.moving:
+            moving = active.axis.id if active is not None else f"motor {ctl.selected_motor}"
+            raise ConflictError(
+                f"cannot {what} {ref.id}: controller {ref.controller_id} is moving ({moving}); "
+                "its two motors never move together (§2), a motion command now would be "
+                "ignored with a command error (§9-1)",
+                field="axis",
+            )
+
+    async def _current(self, ref: AxisRef) -> int:
+        """The axis's position: cached, or read now when not known or stale."""
+        state = self.gateway.state.axis(ref.loop, ref.body, ref.motor)
+        if state.position is not None and not state.stale:
+            return state.position
+        result = await self._submit(ref, [parse(f"6{ref.motor}")], motor=None)
+        if not isinstance(result.value, int):
+            raise DeviceError(f"the position of {ref.id} could not be read", outcome="not_done")
+        return result.value
+
+    async def _submit(
+        self, ref: AxisRef, commands: list[Command], *, motor: int | None
+    ) -> TransactionResult:
+        return await self.gateway.scheduler(ref.loop).submit(ref.body, commands, motor=motor)
+
+    async def _run(
+        self,
+        ref: AxisRef,
+        kind: str,
+        request: dict[str, Any],
+        commands: list[Command],
+        *,
+        target: int | None = None,
+        holder: str,
+    ) -> Operation:
+        return await self.operations.run(
+            ref,
+            kind,
+            request,
+            commands,
+            motor=ref.motor,
+            target=target,
+            prefix=self._prefix(ref),
+            holder=holder,
+        )

@@ -1,0 +1,231 @@
+"""The gateway's configuration: a TOML file read into pydantic models (issue 5).
+
+One file describes a cell: its loops (port URL, baud, time-outs, poll periods, SUM at
+connect), the controllers on each (body number, name) and their axes (name, user units, soft
+limits), the security section (API tokens stored as SHA-256 hashes, each with a role and a
+name; CORS origins), the audit log and the WebSocket limits. ``deploy/cell.example.toml`` is
+the annotated example.
+
+Every key is checked before anything starts: an unknown key, a bad value or a broken rule
+raises ``ConfigError``, whose message names the key (``loops[0].controllers[1].body``) and the
+problem. Environment variables ``RC233_<KEY>`` override top-level keys (pydantic-settings),
+e.g. ``RC233_AUDIT_LOG``.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+from typing import Annotated, Literal, Self
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic_settings import BaseSettings, SettingsConfigDict
+
+from gateway.errors import GatewayError
+from gateway.protocol.framing import BAUD_RATES, BODY_NUMBERS
+from gateway.service.roles import Role
+
+__all__ = [
+    "NAME_PATTERN",
+    "AxisSettings",
+    "ConfigError",
+    "ControllerSettings",
+    "GatewayConfig",
+    "LoopSettings",
+    "PollSettings",
+    "SecuritySettings",
+    "TimeoutSettings",
+    "TokenSettings",
+    "WsSettings",
+    "load_config",
+]
+
+#: Names of loops, controllers and axes: no dots, so a name never reads as an id (`main.1.2`).
+NAME_PATTERN = r"^[A-Za-z][A-Za-z0-9_-]{0,31}$"
+Name = Annotated[str, Field(pattern=NAME_PATTERN)]
+
+
+class ConfigError(GatewayError):
+    """The configuration breaks a rule; the message names every key at fault."""
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class AxisSettings(_Strict):
+    """One motor of a controller as users see it."""
+
+    motor: Literal[1, 2]
+    name: Name | None = None
+    #: the user unit's name (``mm``, ``deg``); ``pulse`` when the axis has none
+    unit: str = Field("pulse", min_length=1, max_length=16)
+    #: user units per pulse (0.01 mm a pulse: 0.01)
+    units_per_pulse: float = Field(1.0, gt=0)
+    #: soft limits in user units; a move that would end outside is refused before it is sent
+    soft_min: float | None = None
+    soft_max: float | None = None
+
+    @model_validator(mode="after")
+    def _limits_in_order(self) -> Self:
+        low, high = self.soft_min, self.soft_max
+        if low is not None and high is not None and low >= high:
+            raise ValueError(f"soft_min {low} must be below soft_max {high}")
+        return self
+
+
+class ControllerSettings(_Strict):
+    """One RC-233 on a loop."""
+
+    body: str = Field(pattern=f"^[{BODY_NUMBERS}]$", description="body number 0-E (§9-1)")
+    name: Name | None = None
+    series: Literal["$", "#"] = "$"
+    axes: list[AxisSettings] = Field(default_factory=list, max_length=2)
+
+    @model_validator(mode="after")
+    def _motors_once(self) -> Self:
+        motors = [a.motor for a in self.axes]
+        if len(set(motors)) != len(motors):
+            raise ValueError(f"axes: each motor (1, 2) at most once, got {motors}")
+        return self
+
+
+class TimeoutSettings(_Strict):
+    """The scheduler's timing and retry knobs (gateway/bus/config.py ``LoopConfig``)."""
+
+    turnaround: float = Field(0.010, ge=0, le=1)
+    host_latency: float = Field(0.020, ge=0, le=5)
+    nak_retries: int = Field(3, ge=0, le=10)
+    resend_retries: int = Field(2, ge=0, le=10)
+    timeouts_to_down: int = Field(8, ge=1, le=100)
+    eeprom_write_hold: float = Field(5.0, gt=0, le=60)
+
+
+class PollSettings(_Strict):
+    """Poll periods in seconds (gateway/bus/poll_plan.py ``PollConfig``)."""
+
+    moving_period: float = Field(0.050, gt=0, le=10)
+    idle_period: float = Field(1.0, gt=0, le=600)
+    sensor_period: float = Field(5.0, gt=0, le=3600)
+    condition_period: float = Field(10.0, gt=0, le=3600)
+
+
+class LoopSettings(_Strict):
+    """One serial loop (one RC-002 link master)."""
+
+    name: Name
+    #: a device path (/dev/ttyUSB0), socket://host:port or rfc2217://host:port
+    port: str = Field(min_length=1)
+    baud: int = 9600
+    sum_at_connect: bool = False
+    timeouts: TimeoutSettings = TimeoutSettings()
+    poll: PollSettings = PollSettings()
+    controllers: list[ControllerSettings] = Field(min_length=1, max_length=20)
+
+    @model_validator(mode="after")
+    def _checks(self) -> Self:
+        if self.baud not in BAUD_RATES:
+            raise ValueError(f"baud {self.baud}: one of {', '.join(map(str, BAUD_RATES))} (§10 ES)")
+        bodies = [(c.series, c.body) for c in self.controllers]
+        if len(set(bodies)) != len(bodies):
+            raise ValueError("controllers: each body number once per series on a loop (§9-1)")
+        if len({c.body for c in self.controllers}) != len(self.controllers):
+            raise ValueError("controllers: the gateway addresses one controller per body number")
+        return self
+
+
+class TokenSettings(_Strict):
+    """One API token: stored as the SHA-256 hex digest of the token, never the token itself."""
+
+    name: Name
+    role: Role
+    sha256: str = Field(pattern=r"^[0-9a-f]{64}$", description="hashlib.sha256(token).hexdigest()")
+
+
+class SecuritySettings(_Strict):
+    """Tokens and CORS."""
+
+    tokens: list[TokenSettings] = Field(default_factory=list)
+    cors_origins: list[str] = Field(default_factory=list)
+
+    @model_validator(mode="after")
+    def _unique(self) -> Self:
+        names = [t.name for t in self.tokens]
+        if len(set(names)) != len(names):
+            raise ValueError("tokens: each name once (the audit log names the token)")
+        if len({t.sha256 for t in self.tokens}) != len(self.tokens):
+            raise ValueError("tokens: the same token twice")
+        return self
+
+
+class WsSettings(_Strict):
+    """WebSocket limits."""
+
+    replay: int = Field(10_000, ge=100, le=1_000_000, description="messages kept for replay")
+    backlog: int = Field(1_000, ge=10, le=100_000, description="unsent messages per client")
+    ping_interval: float = Field(20.0, gt=0, le=600)
+
+
+class GatewayConfig(BaseSettings):
+    """The whole configuration (a TOML file, environment ``RC233_*`` over it)."""
+
+    model_config = SettingsConfigDict(extra="forbid", frozen=True, env_prefix="RC233_")
+
+    loops: list[LoopSettings] = Field(min_length=1)
+    security: SecuritySettings = SecuritySettings()
+    audit_log: Path | None = None
+    ws: WsSettings = WsSettings()
+
+    @model_validator(mode="after")
+    def _names_unique(self) -> Self:
+        seen: dict[str, str] = {}
+        for i, loop in enumerate(self.loops):
+            _claim(seen, loop.name, f"loops[{i}].name")
+            for j, ctl in enumerate(loop.controllers):
+                if ctl.name:
+                    _claim(seen, ctl.name, f"loops[{i}].controllers[{j}].name")
+                for k, axis in enumerate(ctl.axes):
+                    if axis.name:
+                        _claim(seen, axis.name, f"loops[{i}].controllers[{j}].axes[{k}].name")
+        return self
+
+
+def _claim(seen: dict[str, str], name: str, where: str) -> None:
+    if name in seen:
+        raise ValueError(f"{where}: name {name!r} is already used by {seen[name]}")
+    seen[name] = where
+
+
+def _where(loc: tuple[int | str, ...]) -> str:
+    out = ""
+    for part in loc:
+        out += f"[{part}]" if isinstance(part, int) else (f".{part}" if out else str(part))
+    return out or "(file)"
+
+
+def describe(exc: ValidationError, source: str) -> ConfigError:
+    """One ``ConfigError`` naming every key at fault and its problem."""
+    lines = [f"{source}: {len(exc.errors())} problem(s)"]
+    for err in exc.errors():
+        where = _where(tuple(p for p in err["loc"] if not isinstance(p, str) or p))
+        lines.append(f"  {where}: {err['msg']}")
+    return ConfigError("\n".join(lines))
+
+
+def parse_config(data: dict[str, object], source: str = "configuration") -> GatewayConfig:
+    """Validate a configuration given as a dict (what the TOML file holds)."""
+    try:
+        return GatewayConfig(**data)  # type: ignore[arg-type]
+    except ValidationError as exc:
+        raise describe(exc, source) from None
+
+
+def load_config(path: Path) -> GatewayConfig:
+    """Read and validate a TOML file; ``ConfigError`` naming the key and the problem."""
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except OSError as exc:
+        raise ConfigError(f"{path}: cannot read the file ({exc.strerror})") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{path}: not valid TOML ({exc})") from None
+    return parse_config(data, str(path))

@@ -1,0 +1,240 @@
+"""A controller's resources: position table, I/O ports, sensor logic, mode, EEPROM (§10).
+
+Each method takes the controller (``ControllerRef``), builds its commands from the catalog's
+models (never text), sends them through ``CommandRunner`` (leases and the manual's refusals
+for writes) and answers a read with the resource, a write with its transaction. A read or
+write that did not take effect is an error (``require_done``): 409 when the controller refused
+it, 504 when its reply was lost.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from pydantic import ValidationError
+
+from gateway.bus.requests import TransactionResult
+from gateway.errors import DeviceError, InvalidInputError
+from gateway.protocol.models import Command
+from gateway.protocol.params import PositionFormat
+from gateway.protocol.registry import REGISTRY, parse
+from gateway.protocol.reply_values import (
+    Contact,
+    InputsWithInp,
+    OutputsWithClr,
+    PortByte,
+    SensorLogic,
+)
+from gateway.service.commands import CommandRunner, require_done
+from gateway.service.ctl_models import (
+    BitView,
+    EepromArea,
+    IoView,
+    ModeView,
+    OutputsWrite,
+    PortView,
+    PositionEntry,
+    PositionWrite,
+    SensorLogicView,
+    SensorLogicWrite,
+)
+from gateway.service.ctl_replies import CommandResponse, port_json, response_of
+from gateway.service.topology import ControllerRef
+
+__all__ = ["EEPROM_LOAD", "EEPROM_SAVE", "ControllerResources", "build", "value_of"]
+
+#: §10 DW / AW / IW: write RAM to EEPROM ('>' then ``$B#*`` when the write ends; the scheduler
+#: holds the loop until then, docs/manual-notes.md); §10 DL / AL / IL: EEPROM back into RAM.
+EEPROM_SAVE = {EepromArea.SETTINGS: "DW", EepromArea.POSITIONS: "AW", EepromArea.PROGRAM: "IW"}
+EEPROM_LOAD = {EepromArea.SETTINGS: "DL", EepromArea.POSITIONS: "AL", EepromArea.PROGRAM: "IL"}
+
+
+def build(key: str, field_prefix: str = "body", **params: Any) -> Command:
+    """The model of form ``key`` with ``params``; 422 naming the parameter when one breaks
+    its rule. ``positions`` in ``params`` is the validation context (EP / mode)."""
+    positions = params.pop("positions", None)
+    model = REGISTRY.model(key)
+    context = {"positions": positions} if positions is not None else None
+    try:
+        return model.model_validate(params, context=context)
+    except ValidationError as exc:
+        error = exc.errors()[0]
+        name = str(error["loc"][0]) if error["loc"] else None
+        param = next((p for p in model.form.params if p.name == name), None)
+        rule = param.rule() if param is not None else str(error["msg"])
+        field = f"{field_prefix}.{name}" if name else field_prefix
+        raise InvalidInputError(f"{key}: {error['msg']}", field=field, rule=rule) from None
+
+
+def value_of(ref: ControllerRef, result: TransactionResult, index: int = -1) -> Any:
+    """The decoded value of one command of a done transaction (504 when it has none)."""
+    value = require_done(ref, result).results[index].value
+    if value is None:
+        command = result.results[index].command.wire()
+        raise DeviceError(f"controller {ref.id}: no data in the reply to {command!r}")
+    return value
+
+
+def _port(byte: PortByte) -> PortView:
+    return PortView(**port_json(byte))
+
+
+class ControllerResources:
+    """Position table, I/O, sensor logic, mode and EEPROM of the gateway's controllers."""
+
+    def __init__(self, runner: CommandRunner) -> None:
+        self.runner = runner
+
+    def _mode(self, ref: ControllerRef) -> int | None:
+        return self.runner.gateway.state.controller(ref.loop, ref.body).mode
+
+    async def _write(
+        self, ref: ControllerRef, command: Command, holder: str, motor: int | None = None
+    ) -> CommandResponse:
+        result = await self.runner.run(ref, command, holder=holder, motor=motor)
+        return response_of(ref, require_done(ref, result))
+
+    # ------------------------------------------------------------------ position table
+
+    async def position(self, ref: ControllerRef, number: int) -> PositionEntry:
+        """Entry ``number`` of the position table (``A{pn}D``, §10 A form III)."""
+        command = build("A{pn}D", "path", pn=number)
+        value = value_of(ref, await self.runner.run(ref, command, holder=""))
+        return PositionEntry(controller=ref.id, number=number, position=int(value))
+
+    async def set_position(
+        self, ref: ControllerRef, number: int, body: PositionWrite, *, holder: str
+    ) -> CommandResponse:
+        """Set entry ``number``: a value (``A{pn}{pp}``) or the current position (``A{pn}``).
+
+        Signed management (mode 1; EP1 is not cached) and negative values are written with a
+        sign, as the manual requires there (docs/manual-notes.md, "Positions in signed
+        management carry a sign").
+        """
+        if body.current:
+            command = build("A{pn}", "path", pn=number)
+            return await self._write(ref, command, holder, motor=body.motor)
+        signed = self._mode(ref) == 1
+        fmt = PositionFormat.SIGNED if signed else None
+        pp = body.position
+        try:
+            command = build(
+                "A{pn}{pp}", "body", pn=number, pp=pp, signed=signed or (pp or 0) < 0, positions=fmt
+            )
+        except InvalidInputError as exc:  # pn is the path's, checked there: pp is `position`
+            exc.field = "body.position"
+            raise
+        return await self._write(ref, command, holder)
+
+    # ------------------------------------------------------------------ I/O
+
+    async def io(self, ref: ControllerRef) -> IoView:
+        """Both ports; in modes 0 and 1 with INP1/INP2 and CLR1/CLR2 (``CA``, ``COA``)."""
+        mode = self._mode(ref)
+        if mode is None:  # 94: the mode bits of 9, clear nothing (§10 9 form II)
+            mode = int(value_of(ref, await self.runner.send(ref, [parse("94")])))
+        if mode in (0, 1):
+            result = await self.runner.send(ref, [parse("CA"), parse("COA")])
+            inputs = value_of(ref, result, 0)
+            outputs = value_of(ref, result, 1)
+            assert isinstance(inputs, InputsWithInp) and isinstance(outputs, OutputsWithClr)
+            return IoView(
+                controller=ref.id,
+                mode=mode,
+                inputs=_port(inputs.inputs),
+                outputs=_port(outputs.outputs),
+                inp1=inputs.inp1,
+                inp2=inputs.inp2,
+                clr1=outputs.clr1,
+                clr2=outputs.clr2,
+            )
+        result = await self.runner.send(ref, [parse("C"), parse("CO")])
+        ins, outs = value_of(ref, result, 0), value_of(ref, result, 1)
+        assert isinstance(ins, PortByte) and isinstance(outs, PortByte)
+        return IoView(controller=ref.id, mode=mode, inputs=_port(ins), outputs=_port(outs))
+
+    async def bit(self, ref: ControllerRef, port: str, bit: int) -> BitView:
+        """One input (``C{bit}``) or output (``CO{bit}``) bit; 8, 9 = INP1/2 or CLR1/2."""
+        key = "C{bit}" if port == "inputs" else "CO{bit}"
+        value = value_of(ref, await self.runner.send(ref, [build(key, "path", bit=bit)]))
+        return BitView(controller=ref.id, bit=bit, on=bool(value))
+
+    async def set_outputs(
+        self, ref: ControllerRef, body: OutputsWrite, *, holder: str
+    ) -> CommandResponse:
+        """All outputs (``D{du}{dl}``), with CLR1/CLR2 (``DA{dc}{du}{dl}``, modes 0, 1)."""
+        du, dl = body.value >> 4, body.value & 0xF
+        if body.clr1 is None:
+            return await self._write(ref, build("D{du}{dl}", du=du, dl=dl), holder)
+        dc = int(bool(body.clr1)) | int(bool(body.clr2)) << 1  # DC bit 0 CLR1, bit 1 CLR2
+        return await self._write(ref, build("DA{dc}{du}{dl}", dc=dc, du=du, dl=dl), holder)
+
+    async def set_output_bit(
+        self, ref: ControllerRef, bit: int, on: bool, *, holder: str
+    ) -> CommandResponse:
+        """One output: ``D{bit}{value}B`` (0-7), ``D{clr}{value}B`` (8 CLR1, 9 CLR2)."""
+        if bit in (8, 9):
+            command = build("D{clr}{value}B", "path", clr=bit, value=int(on))
+        else:
+            command = build("D{bit}{value}B", "path", bit=bit, value=int(on))
+        return await self._write(ref, command, holder)
+
+    async def pulse_output(
+        self, ref: ControllerRef, bit: int, time: int, *, holder: str
+    ) -> CommandResponse:
+        """Output ``bit`` ON for ``time`` x 100 ms (``P{bt}{time}``; it uses the timer)."""
+        return await self._write(ref, build("P{bt}{time}", "path", bt=bit, time=time), holder)
+
+    # ------------------------------------------------------------------ sensor logic, mode
+
+    async def sensor_logic(self, ref: ControllerRef, motor: int) -> SensorLogicView:
+        """The sensor logic of ``motor`` (``EA`` with the motor selected first)."""
+        value = value_of(ref, await self.runner.run(ref, parse("EA"), holder="", motor=motor))
+        assert isinstance(value, SensorLogic)
+        return SensorLogicView(
+            controller=ref.id,
+            motor=motor,
+            step_out_sensor=value.step_out_sensor.name,
+            limit=value.limit.name,
+            org=value.org.name,
+            emergency_stop=value.emergency_stop.name,
+            inp=value.inp.name,
+        )
+
+    async def set_sensor_logic(
+        self, ref: ControllerRef, motor: int, body: SensorLogicWrite, *, holder: str
+    ) -> CommandResponse:
+        """``EA{du}{dl}`` for ``motor`` (§10 EA; the EMS bit is common to both motors)."""
+        logic = SensorLogic(
+            step_out_sensor=Contact[body.step_out_sensor],
+            limit=Contact[body.limit],
+            org=Contact[body.org],
+            emergency_stop=Contact[body.emergency_stop],
+            inp=Contact[body.inp],
+        )
+        byte = logic.byte
+        command = build("EA{du}{dl}", du=byte >> 4, dl=byte & 0xF)
+        return await self._write(ref, command, holder, motor=motor)
+
+    async def mode(self, ref: ControllerRef) -> ModeView:
+        """The operating mode, read with ``94`` (allowed while moving, clears nothing)."""
+        value = value_of(ref, await self.runner.send(ref, [parse("94")]))
+        return ModeView(controller=ref.id, mode=int(value))
+
+    async def set_mode(self, ref: ControllerRef, mode: int, *, holder: str) -> CommandResponse:
+        """``E{mode}`` (§10 E: not while moving)."""
+        return await self._write(ref, build("E{mode}", mode=mode), holder)
+
+    # ------------------------------------------------------------------ EEPROM
+
+    async def eeprom(
+        self, ref: ControllerRef, action: str, area: EepromArea | None, *, holder: str
+    ) -> CommandResponse:
+        """Save (``DW``/``AW``/``IW``), load (``DL``/``AL``/``IL``) or erase (``EE///``)."""
+        if action == "erase":
+            key = "EE///"
+        elif area is None:
+            raise InvalidInputError("an EEPROM save or load names its area", field="body.area")
+        else:
+            key = (EEPROM_SAVE if action == "save" else EEPROM_LOAD)[area]
+        return await self._write(ref, build(key), holder)

@@ -1,0 +1,169 @@
+"""How the end of a motion is seen, for ``Operations``.
+
+The end of a motion is seen in the status reads (``""``) that follow the send: the poller
+reads ``""`` every ``moving_period`` while a motor moves (issue 4), and the scheduler publishes
+every reply, whoever asked. ``""`` clears its error bits on the device (§10 "" 注意点), so the
+errors are taken from the reads themselves: a limit error or an emergency stop reported after
+the send makes the operation ``failed``, as does a command error before the motor was ever
+seen moving (the controller ignored the command, §9-1 注意). The final position is the next
+position read (``6{mt}``: the poller reads it in the same transaction as the ``""`` that saw
+the end), or a read of our own when none comes.
+
+Watching the events rather than state changes: the cache publishes a field only when it moves,
+so a move too short for any read to see it moving would change nothing there.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+from collections.abc import Callable
+from typing import Any
+
+from gateway.bus.events import BusEvent, LinkDown, ReplyObserved, TransactionDone
+from gateway.bus.requests import Outcome
+from gateway.bus.state_types import Change
+from gateway.protocol.registry import parse
+from gateway.protocol.reply_values import StatusFlags
+from gateway.service.gateway import Gateway
+from gateway.service.operation_types import FINAL, Operation, OperationError, OperationState
+
+__all__ = ["FINAL_READ_WAIT", "MotionWatch"]
+
+log = logging.getLogger("gateway.service")
+
+#: Host seconds to wait for the poller's position read after the end before reading it here.
+FINAL_READ_WAIT = 0.5
+
+_LIMIT = OperationError(
+    kind="limit_error",
+    title="Limit error",
+    detail='a limit sensor turned on during the motion, or a step-out error stopped it (§10 "" '
+    "bit 1)",
+)
+_EMERGENCY = OperationError(
+    kind="emergency_stop",
+    title="Emergency stop",
+    detail='the EMS input stopped the motion (§10 "" bit 2)',
+)
+_COMMAND = OperationError(
+    kind="command_error",
+    title="Command error",
+    detail='the controller ignored the command (§10 "" bit 3): a motion command while a motor '
+    "moves, a step-out error, or a mode restriction (§9-1 注意, §10 9)",
+)
+
+
+class MotionWatch:
+    """Follows the active operation of each controller to its end, from the bus events."""
+
+    def __init__(
+        self,
+        gateway: Gateway,
+        active: dict[tuple[str, str], Operation],
+        set_state: Callable[[Operation, OperationState], None],
+        end: Callable[[Operation, OperationState, OperationError | None], None],
+    ) -> None:
+        self.gateway = gateway
+        self._active = active
+        self._set = set_state
+        self._end = end
+        self._tasks: set[asyncio.Task[Any]] = set()
+        self._unsubscribe = [
+            scheduler.events.subscribe(self._on_bus) for scheduler in gateway.schedulers.values()
+        ]
+        self._unsubscribe.append(gateway.state.listen(self._on_change))
+
+    def close(self) -> None:
+        """Stop listening; abandon the final reads under way."""
+        for unsubscribe in self._unsubscribe:
+            unsubscribe()
+        for task in self._tasks:
+            task.cancel()
+
+    def _on_bus(self, event: BusEvent) -> None:
+        if isinstance(event, LinkDown):
+            for (loop, _), running in list(self._active.items()):
+                if loop == event.loop and running.state not in FINAL:
+                    error = OperationError.of("loop_down", "Loop down", event.cause, "unknown")
+                    self._end(running, OperationState.UNKNOWN, error)
+            return
+        body = getattr(event, "body", None)
+        op = self._active.get((event.loop, body)) if isinstance(body, str) else None
+        if op is None:
+            return
+        if isinstance(event, TransactionDone):
+            # The move's own transaction has ended: reads from now on see its motion.
+            if not op.armed and event.commands == op.wire and event.outcome is Outcome.DONE:
+                op.armed = True
+        elif isinstance(event, ReplyObserved) and op.armed:
+            if isinstance(event.value, StatusFlags):
+                self._status(op, event.value)
+            elif op.ending is not None and event.command.key in ("6", "6{mt}"):
+                motor = event.command.motor or event.motor
+                if motor == op.motor and isinstance(event.value, int) and not op.ending.done():
+                    op.ending.set_result(event.value)
+
+    def _status(self, op: Operation, flags: StatusFlags) -> None:
+        if flags.limit_error:
+            op.errors.add("limit_error")
+        if flags.emergency_stop:
+            op.errors.add("emergency_stop")
+        if flags.command_error and not op.seen_moving:
+            op.errors.add("command_error")
+        if flags.moving:
+            op.seen_moving = True
+            if op.state is OperationState.SENT:
+                self._set(op, OperationState.MOVING)
+        elif op.ending is None:
+            op.ending = asyncio.get_running_loop().create_future()
+            task = asyncio.ensure_future(self._finish(op, op.ending))
+            self._tasks.add(task)
+            task.add_done_callback(self._tasks.discard)
+
+    async def _finish(self, op: Operation, ending: asyncio.Future[int]) -> None:
+        """The motion has ended: its final position, then its verdict."""
+        position: int | None
+        try:
+            position = await asyncio.wait_for(asyncio.shield(ending), FINAL_READ_WAIT)
+        except TimeoutError:
+            position = await self._read_position(op)
+        if op.state in FINAL:
+            return
+        op.position = position
+        if "limit_error" in op.errors:
+            self._end(op, OperationState.FAILED, _LIMIT)
+        elif "emergency_stop" in op.errors:
+            self._end(op, OperationState.FAILED, _EMERGENCY)
+        elif "command_error" in op.errors:
+            self._end(op, OperationState.FAILED, _COMMAND)
+        elif op.stop_requested and op.kind != "jog":
+            detail = f"a stop request ended the {op.kind} at {position} pulses"
+            if op.target is not None:
+                detail += f", before its target {op.target}"
+            self._end(op, OperationState.FAILED, OperationError.of("stopped", "Stopped", detail))
+        else:
+            self._end(op, OperationState.DONE, None)
+
+    async def _read_position(self, op: Operation) -> int | None:
+        try:
+            result = await self.gateway.scheduler(op.axis.loop).submit(
+                op.axis.body, parse(f"6{op.motor}")
+            )
+        except Exception as exc:
+            log.info("operation %s: final position not read: %s", op.id, exc)
+            return None
+        value = result.value
+        return value if isinstance(value, int) and not isinstance(value, bool) else None
+
+    def _on_change(self, change: Change) -> None:
+        """A controller that stops answering ends its operation in doubt."""
+        if change.body is None or change.motor is not None:
+            return
+        if change.values.get("online") is False:
+            op = self._active.get((change.loop, change.body))
+            if op is not None and op.state not in FINAL:
+                error = OperationError.of(
+                    "offline", "Controller offline", "the controller stopped answering", "unknown"
+                )
+                self._end(op, OperationState.UNKNOWN, error)

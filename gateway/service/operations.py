@@ -1,0 +1,242 @@
+"""Operations: one per motion request, followed from the send to the end of the motion.
+
+An operation goes ``queued`` (created) -> ``sent`` (the controller answered '>') -> ``moving``
+(a status read saw the motor turn) -> ``done`` | ``failed`` | ``unknown``. Every change is
+published as a ``ServiceEvent`` of kind ``operation`` on topic ``axis:<id>``.
+
+How the end of a motion is seen: ``motion_watch``.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import itertools
+import logging
+import time
+from collections import OrderedDict
+from collections.abc import Sequence
+from typing import Any
+
+from gateway.bus.requests import LoopDown, Outcome, ReplyKind, TransactionResult
+from gateway.errors import ConflictError, DeviceError, NotFoundError
+from gateway.protocol.models import Command
+from gateway.service.events import EventKind, ServiceEvent
+from gateway.service.gateway import Gateway
+from gateway.service.motion_watch import MotionWatch
+from gateway.service.operation_types import (
+    FINAL,
+    Operation,
+    OperationError,
+    OperationState,
+    OperationView,
+    frames_of,
+)
+from gateway.service.topology import AxisRef
+
+__all__ = ["Operation", "OperationError", "OperationState", "OperationView", "Operations"]
+
+log = logging.getLogger("gateway.service")
+
+
+class Operations:
+    """Every operation of the gateway (the last ``retention``), and the tracking of the
+    active one per controller (its two motors never move together, §2)."""
+
+    def __init__(self, gateway: Gateway, *, retention: int = 10_000) -> None:
+        self.gateway = gateway
+        self.retention = retention
+        self._ops: OrderedDict[str, Operation] = OrderedDict()
+        self._active: dict[tuple[str, str], Operation] = {}
+        self._ids = itertools.count(1)
+        self._watch = MotionWatch(gateway, self._active, self._set, self._end)
+
+    def close(self) -> None:
+        """Stop listening (the gateway is closing)."""
+        self._watch.close()
+
+    # ------------------------------------------------------------------ reading
+
+    def get(self, ident: str) -> Operation:
+        """The operation ``ident``; ``NotFoundError`` when unknown (or no longer retained)."""
+        op = self._ops.get(ident)
+        if op is None:
+            raise NotFoundError("operation", ident)
+        return op
+
+    def list(
+        self, *, axis: str | None = None, state: OperationState | None = None, limit: int = 100
+    ) -> list[Operation]:
+        """The newest operations first (of ``axis``, in ``state``), at most ``limit``."""
+        out: list[Operation] = []
+        for op in reversed(self._ops.values()):
+            if (axis is None or op.axis.id == axis) and (state is None or op.state is state):
+                out.append(op)
+                if len(out) >= limit:
+                    break
+        return out
+
+    def active(self, loop: str, body: str) -> Operation | None:
+        """The operation not yet ended on controller ``loop.body``, if any."""
+        return self._active.get((loop, body))
+
+    async def wait(self, ident: str, timeout: float) -> Operation:
+        """The operation once it has ended, or as it is after ``timeout`` host seconds."""
+        op = self.get(ident)
+        with contextlib.suppress(TimeoutError):
+            await asyncio.wait_for(op.finished.wait(), timeout)
+        return op
+
+    # ------------------------------------------------------------------ running
+
+    async def run(
+        self,
+        axis: AxisRef,
+        kind: str,
+        request: dict[str, Any],
+        commands: Sequence[Command],
+        *,
+        motor: int | None,
+        target: int | None = None,
+        prefix: str = "$",
+        holder: str | None = None,
+    ) -> Operation:
+        """Create an operation, send ``commands`` as one transaction and follow the motion.
+
+        Returns once the controller has answered: the operation is then ``sent`` (or already
+        further). A transaction that did not take effect marks it ``failed`` / ``unknown`` and
+        raises: ``LoopDown`` / ``DeadlineExpired`` / ``TransactionError`` as the scheduler
+        did, ``ConflictError`` for a command refused with '>@' (ER1), ``DeviceError`` for no
+        usable answer. The transaction runs to its end even if the caller goes away.
+        """
+        key = (axis.loop, axis.body)
+        if key in self._active:
+            raise ConflictError(
+                f"controller {axis.controller_id} has operation {self._active[key].id} "
+                "in progress (§2: its two motors never move together)",
+                field="axis",
+            )
+        op = Operation(
+            id=f"op-{next(self._ids)}-{int(time.time() * 1000) % 100_000_000:08d}",
+            axis=axis,
+            kind=kind,
+            request=dict(request),
+            motor=motor or axis.motor,
+            target=target,
+            holder=holder,
+            wire=tuple(c.wire() for c in commands),
+            prefix=prefix,
+        )
+        self._store(op)
+        self._active[key] = op
+        self._publish(op)
+        scheduler = self.gateway.scheduler(axis.loop)
+        task = asyncio.ensure_future(scheduler.submit(axis.body, commands, motor=motor))
+        try:
+            result = await asyncio.shield(task)
+        except asyncio.CancelledError:
+            task.add_done_callback(lambda t: self._sent(op, t))
+            raise
+        except LoopDown as exc:
+            state = OperationState.UNKNOWN if exc.in_flight else OperationState.FAILED
+            self._end(op, state, OperationError.of("loop_down", "Loop down", str(exc)))
+            raise
+        except Exception as exc:
+            self._end(op, OperationState.FAILED, OperationError.of("refused", "Refused", str(exc)))
+            raise
+        self._after(op, result)
+        return op
+
+    def _sent(self, op: Operation, task: asyncio.Future[TransactionResult]) -> None:
+        """The transaction of a caller that went away has ended."""
+        if task.cancelled() or task.exception() is not None:
+            error = OperationError.of("refused", "Not sent", str(task.exception() or "cancelled"))
+            self._end(op, OperationState.UNKNOWN, error)
+            return
+        try:
+            self._after(op, task.result())
+        except Exception as exc:  # nobody is waiting for the error any more
+            log.info("operation %s: %s", op.id, exc)
+
+    def _after(self, op: Operation, result: TransactionResult) -> None:
+        """Record the transaction's result; raise what a caller must learn."""
+        op.frames = frames_of(result, op.prefix)
+        outcome = result.outcome
+        if outcome is Outcome.DONE:
+            if op.state is OperationState.QUEUED:
+                op.sent = time.time()
+                self._set(op, OperationState.SENT)
+            return
+        first = next(r for r in result.results if r.outcome is not Outcome.DONE)
+        detail = f"{first.command.wire()}: {first.kind.value}" + (
+            f" ({first.note})" if first.note else ""
+        )
+        if outcome is Outcome.UNKNOWN:
+            self._end(
+                op,
+                OperationState.UNKNOWN,
+                OperationError.of("device", "Outcome unknown", detail, "unknown"),
+            )
+            raise DeviceError(
+                f"operation {op.id}: the controller's answer leaves the outcome in doubt: {detail}",
+                outcome="unknown",
+                timeout=first.kind is ReplyKind.TIMEOUT,
+            )
+        self._end(
+            op, OperationState.FAILED, OperationError.of("device", "Not done", detail, "not_done")
+        )
+        if first.kind is ReplyKind.REJECTED:
+            raise ConflictError(
+                f"operation {op.id}: the controller refused {first.command.wire()} with a "
+                "command error ('>@', §10 ER)",
+                field="command",
+            )
+        raise DeviceError(
+            f"operation {op.id}: the command was not carried out: {detail}",
+            outcome="not_done",
+            timeout=first.kind is ReplyKind.TIMEOUT,
+        )
+
+    def note_stop(self, loop: str, body: str) -> Operation | None:
+        """A stop was sent to controller ``loop.body``: the active operation ends there."""
+        op = self._active.get((loop, body))
+        if op is not None:
+            op.stop_requested = True
+        return op
+
+    # ------------------------------------------------------------------ following
+
+    # ------------------------------------------------------------------ bookkeeping
+
+    def _store(self, op: Operation) -> None:
+        self._ops[op.id] = op
+        while len(self._ops) > self.retention:
+            oldest = next(iter(self._ops))
+            if self._ops[oldest].state not in FINAL:  # never drop one still running
+                self._ops.move_to_end(oldest)
+                if all(o.state not in FINAL for o in self._ops.values()):
+                    break
+                continue
+            del self._ops[oldest]
+
+    def _set(self, op: Operation, state: OperationState) -> None:
+        op.state = state
+        op.updated = time.time()
+        self._publish(op)
+
+    def _end(self, op: Operation, state: OperationState, error: OperationError | None) -> None:
+        if op.state in FINAL:
+            return
+        op.error = error
+        op.ended = time.time()
+        key = (op.axis.loop, op.axis.body)
+        if self._active.get(key) is op:
+            del self._active[key]
+        self._set(op, state)
+        op.finished.set()
+
+    def _publish(self, op: Operation) -> None:
+        data = op.view().model_dump(mode="json")
+        self.gateway.events.publish(
+            ServiceEvent(EventKind.OPERATION, f"axis:{op.axis.id}", time.time(), data)
+        )

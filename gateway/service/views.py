@@ -1,0 +1,203 @@
+"""Loops, controllers and axes as clients read them: the response models and their builders.
+
+Built from the bus's ``StateCache`` records and the topology (names, user units). Positions
+are given in pulses as the controller counts them and, where the axis has a unit, in user
+units too. Errors shown are the latched ones (DESIGN invariant 4): they stay until a client
+acknowledges them (``POST /axes/{id}/errors/ack``).
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Literal
+
+from pydantic import BaseModel, Field
+
+from gateway.bus.state_types import AxisState, ControllerState, ErrorKind, Latch, LoopState
+from gateway.service.topology import AxisRef, ControllerRef
+
+__all__ = [
+    "AxisErrors",
+    "AxisView",
+    "ControllerView",
+    "LatchView",
+    "LoopView",
+    "Sensors",
+    "axis_view",
+    "controller_view",
+    "loop_view",
+    "wall_time",
+]
+
+_OFFSET = time.time() - time.monotonic()
+
+
+def wall_time(monotonic: float | None) -> float | None:
+    """A scheduler (monotonic) time as seconds since the epoch."""
+    return None if monotonic is None else round(monotonic + _OFFSET, 6)
+
+
+class Sensors(BaseModel):
+    """The sensor inputs of one motor as last read (§10 8)."""
+
+    cw_limit: bool
+    ccw_limit: bool
+    org: bool
+    emergency_stop: bool
+    step_out_sensor: bool
+
+
+class AxisErrors(BaseModel):
+    """The latched errors an axis shows, until acknowledged."""
+
+    limit: bool = Field(description='limit error ("" / 9 bit 1)')
+    emergency: bool = Field(description='emergency stop ("" / 9 bit 2)')
+    command: bool = Field(description='command error ("" / 9 bit 3)')
+    step_out: bool = Field(description="step-out (9 bit 6): held until homing or RD")
+
+
+class AxisView(BaseModel):
+    """One motor as the gateway last saw it."""
+
+    id: str = Field(examples=["main.1.1"])
+    name: str | None
+    loop: str
+    controller: str = Field(description="the controller's id, loop.body")
+    motor: Literal[1, 2]
+    position: int | None = Field(description="pulses, as the controller counts them")
+    position_user: float | None = Field(description="position in `unit`")
+    unit: str
+    moving: bool
+    selected: bool = Field(description="F selects this motor (§10 F)")
+    sensors: Sensors | None
+    errors: AxisErrors
+    soft_min: float | None
+    soft_max: float | None
+    stale: bool = Field(description="no fresh reading for a while (the controller may be off)")
+    updated: float | None = Field(description="seconds since the epoch of the last reading")
+
+
+class LatchView(BaseModel):
+    """One latched error of a controller."""
+
+    kind: str
+    axes: list[int]
+    first: float | None
+    last: float | None
+    count: int
+    source: str
+
+
+class ControllerView(BaseModel):
+    """One controller: identity, mode, program state, latched errors, its axes' ids."""
+
+    id: str = Field(examples=["main.1"])
+    name: str | None
+    loop: str
+    body: str
+    series: str
+    online: bool | None = Field(description="None: not probed yet")
+    version: str | None
+    mode: int | None = Field(description="0 pulse, 1 encoder, 2 servo (§10 E)")
+    moving: bool
+    selected_motor: int | None
+    program: str | None = Field(description="GSS: 1 running, 0 ended, P paused, E error")
+    communication_error: bool
+    latched: list[LatchView]
+    axes: list[str]
+    updated: float | None
+
+
+class LoopView(BaseModel):
+    """One serial loop."""
+
+    name: str
+    port: str
+    baud: int
+    up: bool
+    cause: str | None = Field(description="why the loop is down")
+    queue_depth: int
+    controllers: list[str]
+    counters: dict[str, float]
+
+
+def axis_view(ref: AxisRef, state: AxisState) -> AxisView:
+    """The view of one axis."""
+    sensors = state.sensors
+    return AxisView(
+        id=ref.id,
+        name=ref.name,
+        loop=ref.loop,
+        controller=ref.controller_id,
+        motor=ref.motor,
+        position=state.position,
+        position_user=ref.to_user(state.position),
+        unit=ref.unit,
+        moving=state.moving,
+        selected=state.selected,
+        sensors=None
+        if sensors is None
+        else Sensors(
+            cw_limit=sensors.cw_limit,
+            ccw_limit=sensors.ccw_limit,
+            org=sensors.org,
+            emergency_stop=sensors.emergency_stop,
+            step_out_sensor=sensors.step_out_sensor,
+        ),
+        errors=AxisErrors(
+            limit=state.limit_error,
+            emergency=state.emergency,
+            command=state.command_error,
+            step_out=state.step_out,
+        ),
+        soft_min=ref.soft_min,
+        soft_max=ref.soft_max,
+        stale=state.stale,
+        updated=wall_time(state.updated),
+    )
+
+
+def _latch(latch: Latch) -> LatchView:
+    return LatchView(
+        kind=latch.kind.value,
+        axes=sorted(latch.axes),
+        first=wall_time(latch.first),
+        last=wall_time(latch.last),
+        count=latch.count,
+        source=latch.source,
+    )
+
+
+def controller_view(ref: ControllerRef, state: ControllerState) -> ControllerView:
+    """The view of one controller."""
+    return ControllerView(
+        id=ref.id,
+        name=ref.name,
+        loop=ref.loop,
+        body=ref.body,
+        series=ref.series.value,
+        online=state.online,
+        version=state.version.version if state.version else None,
+        mode=state.mode,
+        moving=state.moving,
+        selected_motor=state.selected_motor,
+        program=state.program.value if state.program else None,
+        communication_error=ErrorKind.COMMUNICATION in state.latched,
+        latched=[_latch(latch) for latch in state.latched.values()],
+        axes=[a.id for a in ref.axes],
+        updated=wall_time(state.updated),
+    )
+
+
+def loop_view(name: str, port: str, baud: int, bodies: list[str], state: LoopState) -> LoopView:
+    """The view of one loop."""
+    return LoopView(
+        name=name,
+        port=port,
+        baud=baud,
+        up=state.up,
+        cause=state.cause,
+        queue_depth=state.queue_depth,
+        controllers=[f"{name}.{b}" for b in bodies],
+        counters=dict(state.counters),
+    )

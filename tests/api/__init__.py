@@ -1,0 +1,1 @@
+"""Tests of the REST and WebSocket API (issue 5)."""

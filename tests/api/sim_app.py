@@ -1,0 +1,184 @@
+"""The real app on an in-process simulated loop, for the API tests.
+
+``async with running_app() as api:`` builds the simulated loop of ``serve --simulate``
+(bodies 1, 2, 3; axes x, y, z, theta, gripper, conveyor; ``SCALE`` times faster than real
+time), the gateway on it through ``PipeTransport`` (the gateway's real serial code path minus
+the OS) and the app from ``create_app``; it runs the app's lifespan (loops and polling start),
+waits until the poller has read every controller, and gives an httpx client on it. Without
+``roles`` the API runs without authentication; with ``roles=True`` every request needs one of
+``TOKENS``. ``api.heard(body)`` is what the simulated controller heard, from the simulator's
+own line log, so a test asserts the bytes on the wire.
+"""
+
+from __future__ import annotations
+
+import asyncio
+from collections.abc import AsyncIterator, Callable, Sequence
+from contextlib import asynccontextmanager
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import httpx
+from fastapi import FastAPI
+
+from gateway.api.app import create_app
+from gateway.api.security import AuthConfig, TokenBook, TokenEntry, hash_token
+from gateway.bus.state_types import Change, ControllerState
+from gateway.service.events import ServiceEvent
+from gateway.service.gateway import Gateway
+from gateway.service.leases import Leases
+from gateway.service.operations import Operations
+from gateway.service.roles import Role
+from gateway.service.simulated import SIM_LOOP, simulated_config
+from gateway.sim.cli import build_loop
+from gateway.sim.clock import RecordKind, SimClock
+from gateway.sim.loop import SimLoop
+from gateway.sim.serve import SimPort
+from gateway.transport.pipe import PipeTransport
+
+#: Device seconds per real second in the API tests.
+SCALE = 50.0
+BASE = "http://gateway.test/api/v1"
+#: Real seconds a test waits for something the gateway does on its own (polls, a motion end).
+WAIT = 20.0
+#: The tokens of ``running_app(roles=True)``: name -> (token, role); one per role, named
+#: after it, and two operators to tell clients apart (leases).
+TOKENS: dict[str, tuple[str, Role]] = {
+    "viewer": ("tok-viewer", Role.VIEWER),
+    "operator": ("tok-operator", Role.OPERATOR),
+    "admin": ("tok-admin", Role.ADMIN),
+    "alice": ("tok-alice", Role.OPERATOR),
+    "bob": ("tok-bob", Role.OPERATOR),
+}
+
+
+def auth(name: str | Role) -> dict[str, str]:
+    """The Authorization header of the test token ``name`` (or of the token named after a role)."""
+    return {"Authorization": f"Bearer {TOKENS[str(name)][0]}"}
+
+
+def json_of(response: httpx.Response) -> Any:
+    """The JSON body, with the response in the assertion message when it is not JSON."""
+    assert response.headers.get("content-type", "").endswith("json"), response.text
+    return response.json()
+
+
+@dataclass
+class Api:
+    """A running app, its gateway, the simulated loop behind it and a client."""
+
+    app: FastAPI
+    gateway: Gateway
+    sim: SimLoop
+    client: httpx.AsyncClient
+    events: list[ServiceEvent]
+
+    @property
+    def leases(self) -> Leases:
+        """The app's control leases."""
+        leases: Leases = self.app.state.leases
+        return leases
+
+    @property
+    def operations(self) -> Operations:
+        """The app's operations."""
+        operations: Operations = self.app.state.operations
+        return operations
+
+    @property
+    def bodies(self) -> list[str]:
+        """The simulated bodies."""
+        return [u.name for u in self.sim.units]
+
+    def mark(self) -> int:
+        """The simulator's line-log position now (for ``heard(since=...)``)."""
+        return self.sim.log.next_seq
+
+    def heard(self, body: str = "1", since: int = 0) -> list[str]:
+        """The command texts controller ``body`` heard (since ``mark``), in order."""
+        return [
+            r.data[2:].rstrip(b"\r").decode("latin-1")
+            for r in self.sim.log.since(since)
+            if r.kind is RecordKind.HEARD and r.ref > 0 and r.body == body
+        ]
+
+    def device(self, body: str = "1") -> Any:
+        """The simulated controller at ``body``."""
+        return self.sim.unit(body).device
+
+    def position(self, body: str = "1", motor: int = 1) -> int:
+        """The simulated motor's position counter now (read through ``act``: after whatever
+        is due on the simulated line, so the simulator's time never goes back)."""
+        seen: list[int] = []
+        device = self.device(body)
+        self.sim.act(lambda now: seen.append(device.snapshot(now)["axes"][str(motor)]["position"]))
+        return int(seen[0])
+
+    def cached(self, body: str = "1") -> ControllerState:
+        """The state cache's record of controller ``body``."""
+        return self.gateway.state.controller(SIM_LOOP, body)
+
+    async def until(self, check: Callable[[], bool], timeout: float = WAIT) -> None:
+        """Wait until ``check()`` holds, woken by the state cache's changes (no sleeping)."""
+        changed = asyncio.Event()
+
+        def wake(_: Change) -> None:
+            changed.set()
+
+        unlisten = self.gateway.state.listen(wake)
+        try:
+            async with asyncio.timeout(timeout):
+                while not check():
+                    changed.clear()
+                    await changed.wait()
+        finally:
+            unlisten()
+
+    async def identified(self, bodies: Sequence[str] | None = None) -> None:
+        """Every controller read once by the poller (mode known, positions read)."""
+        state = self.gateway.state
+
+        def done() -> bool:
+            return all(
+                state.controller(SIM_LOOP, b).mode is not None
+                and state.axis(SIM_LOOP, b, 1).position is not None
+                for b in (bodies or self.bodies)
+            )
+
+        await self.until(done)
+
+
+@asynccontextmanager
+async def running_app(
+    bodies: Sequence[str] = ("1", "2", "3"),
+    *,
+    scale: float = SCALE,
+    roles: bool = False,
+    eeprom_dir: Path | None = None,
+) -> AsyncIterator[Api]:
+    """The app on a simulated loop, started and identified; closed after the block."""
+    sim = build_loop(list(bodies), clock=SimClock(scale), eeprom_dir=eeprom_dir)
+    gateway = Gateway(
+        simulated_config(bodies),
+        transports={SIM_LOOP: PipeTransport(lambda: SimPort(sim))},
+        time_scale=scale,
+    )
+    if roles:
+        book = TokenBook(TokenEntry(n, role, hash_token(t)) for n, (t, role) in TOKENS.items())
+        app = create_app(gateway, auth=AuthConfig(book))
+    else:
+        app = create_app(gateway, auth=AuthConfig(no_auth=True))
+    events: list[ServiceEvent] = []
+    gateway.events.listen(events.append)
+    try:
+        async with app.router.lifespan_context(app):
+            transport = httpx.ASGITransport(app=app)
+            async with httpx.AsyncClient(
+                transport=transport, base_url=BASE, timeout=WAIT
+            ) as client:
+                api = Api(app, gateway, sim, client, events)
+                await api.identified()
+                yield api
+    finally:
+        sim.close()

@@ -1,0 +1,227 @@
+"""The audit log: one JSON line per mutating request, on a small app of the test's own."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import AsyncIterator
+from dataclasses import dataclass
+from datetime import UTC, datetime, timedelta
+from pathlib import Path
+from typing import Annotated, Any
+
+import httpx
+import pytest
+from fastapi import Depends, FastAPI, Request
+from pydantic import BaseModel
+
+from gateway.api.audit import AuditLog, audit_note, install_audit
+from gateway.api.problems import install_problem_handlers
+from gateway.api.security import (
+    AuthConfig,
+    Principal,
+    TokenBook,
+    TokenEntry,
+    hash_token,
+    install_security,
+    require,
+)
+from gateway.service.roles import Role
+
+TOKENS = {"vera": ("viewer-secret", Role.VIEWER), "otto": ("operator-secret", Role.OPERATOR),
+          "ada": ("admin-secret", Role.ADMIN)}  # fmt: skip
+
+
+class Move(BaseModel):
+    position: int
+    note: str = ""
+
+
+def build_app(audit: AuditLog) -> FastAPI:
+    app = FastAPI()
+    install_problem_handlers(app)
+    book = TokenBook(TokenEntry(n, role, hash_token(t)) for n, (t, role) in TOKENS.items())
+    install_security(app, AuthConfig(book))
+    install_audit(app, audit)
+
+    @app.post("/api/v1/axes/{ident}/move", status_code=202)
+    async def move(
+        ident: str,
+        body: Move,
+        request: Request,
+        _: Annotated[Principal, Depends(require(Role.OPERATOR))],
+    ) -> dict[str, str]:
+        # what a motion handler records: the frames it sent and the positions around it
+        audit_note(request, bytes_sent=[b"$1F1\r", f"$14{body.position}\r".encode()])
+        audit_note(request, position_before=0, position_after=body.position, operation="op-7")
+        audit_note(request, result="done", status=999, path="/forged")  # core keys are kept
+        return {"operation": "op-7"}
+
+    @app.get("/api/v1/axes")
+    async def read(_: Annotated[Principal, Depends(require(Role.VIEWER))]) -> list[str]:
+        return []
+
+    @app.delete("/api/v1/leases/{ident}")
+    async def bug(ident: str) -> None:
+        raise RuntimeError("a defect")
+
+    return app
+
+
+@dataclass
+class Audited:
+    audit: AuditLog
+    client: httpx.AsyncClient
+    path: Path | None
+
+    async def lines(self) -> list[dict[str, Any]]:
+        await self.audit.flush()
+        assert self.path is not None
+        return [json.loads(line) for line in self.path.read_text("utf-8").splitlines()]
+
+
+@pytest.fixture
+async def audited(tmp_path: Path) -> AsyncIterator[Audited]:
+    path = tmp_path / "audit.jsonl"
+    audit = AuditLog(path)
+    transport = httpx.ASGITransport(app=build_app(audit), client=("203.0.113.9", 4711))
+    async with httpx.AsyncClient(transport=transport, base_url="http://gw") as client:
+        yield Audited(audit, client, path)
+    await audit.close()
+
+
+def auth(name: str) -> dict[str, str]:
+    return {"Authorization": f"Bearer {TOKENS[name][0]}"}
+
+
+async def test_a_mutating_request_is_one_line_with_what_it_did(audited: Audited):
+    before = datetime.now(UTC)
+    r = await audited.client.post(
+        "/api/v1/axes/main.1.1/move?wait=true", json={"position": 1000}, headers=auth("otto")
+    )
+    assert r.status_code == 202
+    await audited.client.get("/api/v1/axes", headers=auth("otto"))  # a read: not audited
+    [entry] = await audited.lines()
+    when = datetime.fromisoformat(entry["time"].replace("Z", "+00:00"))
+    assert entry["time"].endswith("Z")
+    assert before - timedelta(seconds=1) <= when <= datetime.now(UTC)
+    assert entry["token"] == "otto" and entry["role"] == "operator"
+    assert entry["client"] == "203.0.113.9:4711"
+    assert (entry["method"], entry["path"], entry["query"]) == (
+        "POST",
+        "/api/v1/axes/main.1.1/move",
+        "wait=true",
+    )
+    assert entry["body"] == {"position": 1000}
+    assert entry["status"] == 202
+    assert entry["bytes_sent"] == ["$1F1\r", "$141000\r"]
+    assert (entry["position_before"], entry["position_after"]) == (0, 1000)
+    assert entry["operation"] == "op-7" and entry["result"] == "done"
+
+
+async def test_refused_requests_are_audited_with_their_status(audited: Audited):
+    await audited.client.post("/api/v1/axes/x/move", json={"position": 1})
+    await audited.client.post("/api/v1/axes/x/move", json={"position": 1}, headers=auth("vera"))
+    await audited.client.post("/api/v1/axes/x/move", json={"position": "far"}, headers=auth("ada"))
+    await audited.client.delete("/api/v1/leases/x")
+    entries = await audited.lines()
+    assert [(e["token"], e["status"]) for e in entries] == [
+        (None, 401),
+        ("vera", 403),
+        ("ada", 422),  # the token is checked with the body: who sent bad input is named
+        (None, 500),
+    ]
+    assert entries[2]["body"] == {"position": "far"}
+    assert "bytes_sent" not in entries[0]
+    assert [e["seq"] for e in entries] == [1, 2, 3, 4]
+
+
+async def test_a_long_body_is_kept_as_its_first_4_kib(audited: Audited):
+    note = "x" * 10_000
+    text = json.dumps({"position": 5, "note": note})
+    r = await audited.client.post(
+        "/api/v1/axes/x/move",
+        content=text.encode(),
+        headers={**auth("otto"), "content-type": "application/json"},
+    )
+    assert r.status_code == 202
+    [entry] = await audited.lines()
+    assert entry["body"] == text[:4096]
+    assert entry["body_truncated"] is True
+    assert entry["body_bytes"] == len(text)
+
+
+async def test_get_audit_is_for_admins_and_pages_by_seq(audited: Audited):
+    for position in range(5):
+        await audited.client.post(
+            "/api/v1/axes/x/move", json={"position": position}, headers=auth("otto")
+        )
+    assert (await audited.client.get("/api/v1/audit", headers=auth("otto"))).status_code == 403
+    assert (await audited.client.get("/api/v1/audit")).status_code == 401
+    page = (await audited.client.get("/api/v1/audit?limit=2", headers=auth("ada"))).json()
+    assert [e["body"]["position"] for e in page["entries"]] == [3, 4]  # the newest, oldest first
+    assert page["last_seq"] == 5
+    after = (await audited.client.get("/api/v1/audit?since=1&limit=2", headers=auth("ada"))).json()
+    assert [e["seq"] for e in after["entries"]] == [2, 3]
+    assert after["entries"][0]["bytes_sent"] == ["$1F1\r", "$141\r"]
+    # the failed reads of /audit above were GETs: never audited
+    assert len(await audited.lines()) == 5
+
+
+async def test_since_takes_a_time_and_refuses_anything_else(audited: Audited):
+    await audited.client.post("/api/v1/axes/x/move", json={"position": 1}, headers=auth("otto"))
+    past = (datetime.now(UTC) - timedelta(minutes=1)).isoformat()
+    future = (datetime.now(UTC) + timedelta(minutes=1)).isoformat().replace("+00:00", "Z")
+    got = await audited.client.get("/api/v1/audit", params={"since": past}, headers=auth("ada"))
+    assert len(got.json()["entries"]) == 1
+    got = await audited.client.get("/api/v1/audit", params={"since": future}, headers=auth("ada"))
+    assert got.json()["entries"] == []
+    bad = await audited.client.get("/api/v1/audit?since=yesterday", headers=auth("ada"))
+    assert bad.status_code == 422
+    assert bad.json()["field"] == "query.since"
+    too_many = await audited.client.get("/api/v1/audit?limit=0", headers=auth("ada"))
+    assert too_many.status_code == 422 and too_many.json()["field"] == "query.limit"
+
+
+async def test_without_a_path_the_log_is_in_memory_only(tmp_path: Path):
+    audit = AuditLog(None)
+    transport = httpx.ASGITransport(app=build_app(audit))
+    async with httpx.AsyncClient(transport=transport, base_url="http://gw") as client:
+        await client.post("/api/v1/axes/x/move", json={"position": 3}, headers=auth("otto"))
+        page = (await client.get("/api/v1/audit", headers=auth("ada"))).json()
+    await audit.close()
+    assert [e["body"] for e in page["entries"]] == [{"position": 3}]
+    assert list(tmp_path.iterdir()) == []
+
+
+async def test_the_memory_keeps_the_newest_entries():
+    audit = AuditLog(None, memory=3)
+    for i in range(5):
+        audit.record({"time": "t", "method": "POST", "path": f"/{i}"})
+    assert [e["path"] for e in audit.entries(limit=10)] == ["/2", "/3", "/4"]
+    assert audit.last_seq == 5
+
+
+async def test_close_writes_every_entry_in_order(tmp_path: Path):
+    path = tmp_path / "a" / "audit.jsonl"
+    path.parent.mkdir()
+    audit = AuditLog(path)
+    for i in range(2500):
+        audit.record({"time": "t", "method": "PUT", "path": f"/{i}", "bytes_sent": [b"\x02\xff"]})
+    await audit.close()  # graceful shutdown: nothing queued is lost
+    lines = [json.loads(line) for line in path.read_text("utf-8").splitlines()]
+    assert [e["seq"] for e in lines] == list(range(1, 2501))
+    assert lines[-1]["path"] == "/2499"
+    assert lines[0]["bytes_sent"] == ["\x02\xff"]  # frames as Latin-1 text, byte for byte
+
+
+async def test_a_disk_that_fails_loses_no_request(tmp_path: Path, caplog: pytest.LogCaptureFixture):
+    audit = AuditLog(tmp_path / "missing-dir" / "audit.jsonl")
+    transport = httpx.ASGITransport(app=build_app(audit))
+    async with httpx.AsyncClient(transport=transport, base_url="http://gw") as client:
+        r = await client.post("/api/v1/axes/x/move", json={"position": 3}, headers=auth("otto"))
+        assert r.status_code == 202
+        await audit.flush()
+    await audit.close()
+    assert audit.write_errors == 1
+    assert [e["status"] for e in audit.entries()] == [202]
+    assert "not written" in caplog.text

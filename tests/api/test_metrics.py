@@ -1,0 +1,311 @@
+"""/metrics, /healthz and /readyz: the text parses, and counts what happened."""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import httpx
+import pytest
+from fastapi import APIRouter, FastAPI
+
+from gateway.api.health import install_operations
+from gateway.api.metrics import CONTENT_TYPE, Metrics, WsStats
+from gateway.api.problems import install_problem_handlers
+from gateway.api.security import AuthConfig, install_security
+from gateway.bus.config import LoopConfig
+from gateway.bus.counters import CountersSnapshot
+from gateway.bus.events import EventBus, TransactionDone
+from gateway.bus.lifecycle import LinkState
+from gateway.bus.requests import Outcome, Priority
+from gateway.protocol.registry import parse
+from gateway.service.gateway import Gateway
+from gateway.service.simulated import SIM_LOOP, simulated_config
+from gateway.sim.cli import build_loop
+from gateway.sim.clock import SimClock
+from gateway.sim.serve import SimPort
+from gateway.transport.pipe import PipeTransport
+
+# ---------------------------------------------------------------------- a tiny parser
+
+_NAME = r"[a-zA-Z_:][a-zA-Z0-9_:]*"
+_SAMPLE = re.compile(rf"^({_NAME})(?:\{{(.*)\}})? (\S+)$")
+_LABEL = re.compile(rf'({_NAME})="((?:[^"\\]|\\.)*)"(,|$)')
+_SUFFIXES = ("_bucket", "_sum", "_count")
+
+Labels = frozenset[tuple[str, str]]
+
+
+@dataclass
+class Family:
+    kind: str
+    help: str
+    samples: dict[tuple[str, Labels], float] = field(default_factory=dict)
+
+
+def parse_exposition(text: str) -> dict[str, Family]:
+    """Parse the text format 0.0.4 strictly: HELP and TYPE before a family's samples, each
+    family in one block, label values escaped, numbers valid."""
+    assert text.endswith("\n")
+    families: dict[str, Family] = {}
+    current: str | None = None
+    pending_help: tuple[str, str] | None = None
+    for line in text.splitlines():
+        if line.startswith("# HELP "):
+            name, _, help_text = line[7:].partition(" ")
+            assert name not in families, f"family {name} appears twice"
+            pending_help = (name, help_text)
+        elif line.startswith("# TYPE "):
+            name, _, kind = line[7:].partition(" ")
+            assert pending_help is not None and pending_help[0] == name, line
+            assert kind in ("counter", "gauge", "histogram", "summary", "untyped"), line
+            families[name] = Family(kind, pending_help[1])
+            current = name
+        else:
+            match = _SAMPLE.match(line)
+            assert match, f"not a sample line: {line!r}"
+            sample, inner, value = match.groups()
+            assert current is not None and (
+                sample == current
+                or (families[current].kind == "histogram" and sample[len(current) :] in _SUFFIXES)
+            ), f"{sample} outside its family block (in {current})"
+            labels: list[tuple[str, str]] = []
+            rest = inner or ""
+            while rest:
+                lm = _LABEL.match(rest)
+                assert lm, f"bad labels in {line!r}"
+                raw = lm.group(2)
+                unescaped = re.sub(r"\\(.)", lambda m: {"n": "\n"}.get(m[1], m[1]), raw)
+                labels.append((lm.group(1), unescaped))
+                rest = rest[lm.end() :]
+            number = float(value)  # accepts +Inf, NaN
+            families[current].samples[(sample, frozenset(labels))] = number
+    return families
+
+
+def value(fams: dict[str, Family], sample: str, **labels: str) -> float:
+    family = (
+        fams[re.sub(r"_(bucket|sum|count)$", "", sample)] if sample not in fams else fams[sample]
+    )
+    return family.samples[(sample, frozenset(labels.items()))]
+
+
+def test_the_parser_refuses_what_prometheus_would():
+    with pytest.raises(AssertionError):
+        parse_exposition('x{a="1"} 1\n')  # no TYPE
+    with pytest.raises(AssertionError):
+        parse_exposition("# HELP x h\n# TYPE x gauge\nx{a=1} 1\n")  # unquoted label
+    with pytest.raises(ValueError):
+        parse_exposition("# HELP x h\n# TYPE x gauge\nx one\n")
+    fams = parse_exposition('# HELP x h\n# TYPE x gauge\nx{a="q\\"\\\\\\n"} +Inf\n')
+    assert value(fams, "x", a='q"\\\n') == float("inf")
+
+
+# ---------------------------------------------------------------------- fakes
+
+
+@dataclass
+class FakeLoop:
+    events: EventBus
+    config: LoopConfig
+    clock: Callable[[], float]
+    state: LinkState = LinkState.UP
+    queue_depth: int = 0
+    cause: str = ""
+
+
+@dataclass
+class FakeGateway:
+    schedulers: dict[str, FakeLoop]
+    counters: dict[str, CountersSnapshot]
+
+    def ready(self) -> bool:
+        return all(s.state is LinkState.UP for s in self.schedulers.values())
+
+    def loop_counters(self, name: str) -> CountersSnapshot:
+        return self.counters[name]
+
+
+class Clock:
+    def __init__(self, now: float) -> None:
+        self.now = now
+
+    def __call__(self) -> float:
+        return self.now
+
+
+def done(loop: str, duration: float, priority: Priority, outcome: Outcome) -> TransactionDone:
+    return TransactionDone(
+        loop=loop, body="1", commands=("Q",), outcome=outcome, priority=priority,
+        duration=duration, exchanges=1, counters=CountersSnapshot(),
+    )  # fmt: skip
+
+
+def fake_gateway() -> tuple[FakeGateway, Clock]:
+    clock = Clock(100.0)
+    main = FakeLoop(EventBus(), LoopConfig(name="main", time_scale=10.0), clock, queue_depth=4)
+    aux = FakeLoop(EventBus(), LoopConfig(name="aux"), clock, state=LinkState.DOWN,
+                   cause="port gone")  # fmt: skip
+    counters = {"main": CountersSnapshot(busy_time=1.0), "aux": CountersSnapshot()}
+    return FakeGateway({"main": main, "aux": aux}, counters), clock
+
+
+def test_loop_counters_gauges_and_the_latency_histogram():
+    gateway, clock = fake_gateway()
+    metrics = Metrics(gateway)  # begins watching at t=100 s with 1.0 s of wire time
+    bus = gateway.schedulers["main"].events
+    for seconds in (0.004, 0.03, 0.03, 3.0):
+        bus.publish(done("main", seconds, Priority.OPERATOR, Outcome.DONE))
+    bus.publish(done("main", 0.3, Priority.POLL, Outcome.UNKNOWN))
+    gateway.counters["main"] = CountersSnapshot(
+        transactions=5, exchanges=9, retries=2, naks=1, timeouts=3, garbled=1, late_replies=1,
+        link_downs=1, busy_time=4.0,
+    )  # fmt: skip
+    clock.now = 110.0  # 10 host seconds at time scale 10: 100 device seconds
+    fams = parse_exposition(metrics.render())
+
+    expected = {"transactions": 5, "exchanges": 9, "retries": 2, "naks": 1, "timeouts": 3,
+                "garbled": 1, "late_replies": 1, "link_downs": 1}  # fmt: skip
+    for name, count in expected.items():
+        metric = f"rc233_loop_{name}_total"
+        assert fams[metric].kind == "counter"
+        assert value(fams, metric, loop="main") == count
+        assert value(fams, metric, loop="aux") == 0
+    assert value(fams, "rc233_loop_busy_seconds_total", loop="main") == 4.0
+    # 3.0 s of wire time in 100 device seconds
+    assert value(fams, "rc233_loop_line_utilisation", loop="main") == pytest.approx(0.03)
+    assert value(fams, "rc233_loop_queue_depth", loop="main") == 4
+    assert value(fams, "rc233_loop_up", loop="main") == 1
+    assert value(fams, "rc233_loop_up", loop="aux") == 0
+    assert value(fams, "rc233_gateway_ready") == 0
+
+    hist = "rc233_transaction_duration_seconds"
+    assert fams[hist].kind == "histogram"
+    op = {"loop": "main", "priority": "operator"}
+    cumulative = {le: value(fams, f"{hist}_bucket", **op, le=le)
+                  for le in ("0.005", "0.01", "0.05", "2.0", "5.0", "+Inf")}  # fmt: skip
+    assert cumulative == {"0.005": 1, "0.01": 1, "0.05": 3, "2.0": 3, "5.0": 4, "+Inf": 4}
+    assert value(fams, f"{hist}_count", **op) == 4
+    assert value(fams, f"{hist}_sum", **op) == pytest.approx(3.064)
+    assert value(fams, f"{hist}_count", loop="main", priority="poll") == 1
+    completed = "rc233_loop_transactions_completed_total"
+    assert value(fams, completed, loop="main", outcome="done") == 4
+    assert value(fams, completed, loop="main", outcome="unknown") == 1
+
+
+def test_websocket_clients_and_drops():
+    stats = WsStats()
+    for _ in range(3):
+        stats.connected()
+    stats.disconnected()
+    stats.dropped()
+    stats.disconnected()
+    stats.dropped("ping")
+    fams = parse_exposition(Metrics(None, ws=stats).render())
+    assert value(fams, "rc233_ws_clients") == 1
+    assert value(fams, "rc233_ws_connections_total") == 3
+    assert value(fams, "rc233_ws_dropped_clients_total", reason="backlog") == 1
+    assert value(fams, "rc233_ws_dropped_clients_total", reason="ping") == 1
+
+
+# ---------------------------------------------------------------------- through an app
+
+
+def build_app(gateway: Any) -> FastAPI:
+    app = FastAPI()
+    install_problem_handlers(app)
+    install_security(app, AuthConfig())  # tokens required, none known: probes stay open
+    install_operations(app, gateway)
+    api = APIRouter()
+
+    @api.get("/axes/{ident}")
+    async def axis(ident: str) -> dict[str, str]:
+        return {"id": ident}
+
+    @api.post("/axes/{ident}/fail")
+    async def fail(ident: str) -> None:
+        raise RuntimeError("defect")
+
+    app.include_router(api, prefix="/api/v1")
+    return app
+
+
+async def test_http_requests_are_counted_by_route_template_method_and_status():
+    gateway, _ = fake_gateway()
+    transport = httpx.ASGITransport(app=build_app(gateway))
+    async with httpx.AsyncClient(transport=transport, base_url="http://gw") as client:
+        for ident in ("main.1.1", "main.1.2", "x"):
+            assert (await client.get(f"/api/v1/axes/{ident}")).status_code == 200
+        assert (await client.post("/api/v1/axes/x/fail")).status_code == 500
+        assert (await client.get("/wp-login.php")).status_code == 404
+        r = await client.get("/metrics")
+    assert r.status_code == 200
+    assert r.headers["content-type"] == CONTENT_TYPE
+    fams = parse_exposition(r.text)
+    requests = "rc233_http_requests_total"
+    route = "/api/v1/axes/{ident}"
+    assert value(fams, requests, route=route, method="GET", status="200") == 3
+    assert value(fams, requests, route=route + "/fail", method="POST", status="500") == 1
+    assert value(fams, requests, route="<unmatched>", method="GET", status="404") == 1
+    duration = "rc233_http_request_duration_seconds"
+    assert value(fams, f"{duration}_count", route=route, method="GET") == 3
+    # no series per concrete id or scanned path
+    routes = {dict(labels)["route"] for (_, labels) in fams[requests].samples}
+    assert routes == {route, route + "/fail", "<unmatched>"}
+
+
+async def test_healthz_and_readyz_need_no_token_and_name_the_loops_down():
+    gateway, _ = fake_gateway()
+    transport = httpx.ASGITransport(app=build_app(gateway))
+    async with httpx.AsyncClient(transport=transport, base_url="http://gw") as client:
+        assert (await client.get("/healthz")).json() == {"status": "ok"}
+        r = await client.get("/readyz")
+        assert r.status_code == 503
+        assert r.headers["content-type"] == "application/problem+json"
+        body = r.json()
+        assert body["loops_down"] == ["aux"]
+        assert "aux (down: port gone)" in body["detail"]
+        gateway.schedulers["aux"].state = LinkState.UP
+        r = await client.get("/readyz")
+        assert r.status_code == 200
+        assert r.json() == {"status": "ready", "loops": {"aux": "up", "main": "up"}}
+        assert (await client.get("/metrics")).status_code == 200
+
+
+# ---------------------------------------------------------------------- a real loop
+
+
+async def test_a_simulated_loop_counts_every_transaction():
+    sim = build_loop(["1"], clock=SimClock(50.0))
+    gateway = Gateway(
+        simulated_config(("1",)),
+        transports={SIM_LOOP: PipeTransport(lambda: SimPort(sim))},
+        time_scale=50.0,
+    )
+    app = build_app(gateway)
+    metrics: Metrics = app.state.metrics
+    try:
+        await gateway.start()
+        scheduler = gateway.schedulers[SIM_LOOP]
+        for _ in range(3):
+            result = await scheduler.submit("1", parse("V"))
+            assert result.ok
+        text = metrics.render()
+        snapshot = scheduler.snapshot()  # no await since render: the same moment
+    finally:
+        await gateway.close()
+        sim.close()
+    fams = parse_exposition(text)
+    hist = "rc233_transaction_duration_seconds"
+    counts = {dict(k[1])["priority"]: v for k, v in fams[hist].samples.items()
+              if k[0] == f"{hist}_count"}  # fmt: skip
+    assert counts["operator"] == 3  # ours; the poller's are at poll priority
+    assert value(fams, "rc233_loop_transactions_total", loop=SIM_LOOP) == snapshot.transactions
+    assert sum(counts.values()) == snapshot.transactions
+    assert value(fams, "rc233_loop_exchanges_total", loop=SIM_LOOP) == snapshot.exchanges
+    assert value(fams, "rc233_loop_bytes_sent_total", loop=SIM_LOOP) == snapshot.bytes_out > 0
+    utilisation = value(fams, "rc233_loop_line_utilisation", loop=SIM_LOOP)
+    assert 0 < utilisation <= 1
+    assert value(fams, "rc233_loop_up", loop=SIM_LOOP) == 1

@@ -1,0 +1,1 @@
+"""Tests of gateway/service: configuration, topology, the running gateway."""
