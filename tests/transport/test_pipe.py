@@ -10,7 +10,7 @@ import pytest
 from gateway.sim.loop import SimLoop
 from gateway.sim.serve import SimPort
 from gateway.transport import PipeTransport, TransportClosed
-from tests.transport import CHECK, CHECK_REPLY, OH, OH_REPLY, exchange, lost, make_sim, reply
+from tests.transport import CHECK, CHECK_REPLY, OH, OH_REPLY, exchange, lost, reply
 
 
 class Ports:
@@ -24,13 +24,6 @@ class Ports:
         port = SimPort(self.sim)
         self.made.append(port)
         return port
-
-
-@pytest.fixture
-async def sim() -> AsyncIterator[SimLoop]:
-    loop = make_sim("1")
-    yield loop
-    loop.close()
 
 
 @pytest.fixture

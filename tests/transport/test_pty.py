@@ -22,15 +22,7 @@ from tests.transport import (
     Ticker,
     exchange,
     lost,
-    make_sim,
 )
-
-
-@pytest.fixture
-async def sim() -> AsyncIterator[SimLoop]:
-    loop = make_sim("1")
-    yield loop
-    loop.close()
 
 
 @pytest.fixture

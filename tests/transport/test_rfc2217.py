@@ -26,7 +26,6 @@ from tests.transport import (
     Ticker,
     exchange,
     lost,
-    make_sim,
 )
 
 # pyserial 3.5's RFC 2217 client still calls Thread.setDaemon/setName.
@@ -101,13 +100,6 @@ class Rfc2217Server:
             session.transport.close()
         await asyncio.gather(*(s.pump for s in self.sessions), return_exceptions=True)
         await self.server.wait_closed()
-
-
-@pytest.fixture
-async def sim() -> AsyncIterator[SimLoop]:
-    loop = make_sim("1")
-    yield loop
-    loop.close()
 
 
 @pytest.fixture

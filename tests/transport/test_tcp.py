@@ -27,7 +27,6 @@ from tests.transport import (
     Ticker,
     exchange,
     lost,
-    make_sim,
 )
 
 
@@ -82,13 +81,6 @@ class DeviceServer:
         # with both ends of every relay closed, the handlers end by themselves
         await asyncio.wait_for(asyncio.gather(*self._handlers, return_exceptions=True), 5)
         await self._server.wait_closed()
-
-
-@pytest.fixture
-async def sim() -> AsyncIterator[SimLoop]:
-    loop = make_sim("1")
-    yield loop
-    loop.close()
 
 
 @pytest.fixture
