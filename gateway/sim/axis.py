@@ -24,12 +24,12 @@ from collections.abc import Callable
 from typing import Any
 
 from gateway.protocol.reply_values import SensorBits, SensorLogic
+from gateway.protocol.speeds import SpeedSettings
 from gateway.sim.counter import PositionCounter
 from gateway.sim.course import AxisEvent, AxisEventKind, FollowUp, Leg, Motion, Pause
 from gateway.sim.encoder import Encoder
 from gateway.sim.homing import Ending, HomingMethod, HomingSetup, Outcome, Until, plan
 from gateway.sim.kinematics import MotionProfile, SpeedPoint, plan_jog, plan_move, plan_pulse
-from gateway.sim.profile import SpeedSettings
 from gateway.sim.scene import AxisScene, Direction, SensorName, SensorReader
 from gateway.sim.search import Search, inp_wait, readings
 from gateway.sim.servo import Servo

@@ -17,9 +17,10 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 from enum import StrEnum
 
+from gateway.protocol.speeds import SpeedSettings
 from gateway.sim.homing import Ending, Halt, Run, Sequence
 from gateway.sim.kinematics import MotionKind, MotionProfile, SpeedLevel
-from gateway.sim.profile import Segment, SpeedSettings
+from gateway.sim.profile import Segment
 from gateway.sim.scene import Direction, SensorName, SensorReader
 from gateway.sim.stepout import DogGuard, Guard
 from gateway.sim.watch import Track, Watch, watch

@@ -22,6 +22,7 @@ from functools import cached_property
 
 # An N point is the same value the N{pn} query reports; one type serves both.
 from gateway.protocol.reply_values import SpeedPoint
+from gateway.protocol.speeds import SpeedSettings
 from gateway.sim.planning import (
     BISECTION_STEPS,
     cut_at_time,
@@ -30,7 +31,7 @@ from gateway.sim.planning import (
     plan_tail,
     point_triggers,
 )
-from gateway.sim.profile import Segment, SpeedSettings, ramp
+from gateway.sim.profile import Segment, ramp
 
 __all__ = [
     "EPSILON",

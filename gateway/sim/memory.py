@@ -28,7 +28,7 @@ from gateway.protocol.reply_values import (
     SensorLogic,
     SpeedPoint,
 )
-from gateway.sim.profile import SpeedSettings
+from gateway.protocol.speeds import SpeedSettings
 
 __all__ = [
     "POSITION_TABLE_SIZE",

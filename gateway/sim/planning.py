@@ -13,7 +13,8 @@ import math
 from dataclasses import replace
 
 from gateway.protocol.reply_values import SpeedPoint
-from gateway.sim.profile import Piece, Segment, SpeedSettings, ramp, ramp_distance
+from gateway.protocol.speeds import SpeedSettings
+from gateway.sim.profile import Piece, Segment, ramp, ramp_distance
 
 __all__ = [
     "BISECTION_STEPS",

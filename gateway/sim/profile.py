@@ -11,42 +11,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-__all__ = [
-    "ACCELERATION_CONSTANT",
-    "BASE_OX",
-    "CHANGE_RAMP_CONSTANT",
-    "OC_MAX",
-    "OS_MAX",
-    "OX_MAX",
-    "OX_MIN",
-    "SPEED_DATA_MAX",
-    "S_RANGE_MAX",
-    "TACC_CONSTANT",
-    "Piece",
-    "Segment",
-    "SpeedSettings",
-    "internal_ox",
-    "ramp",
-    "ramp_distance",
-    "ramp_duration",
-    "speed_constraint_violation",
-]
+from gateway.protocol.speeds import SpeedSettings
 
-from gateway.protocol.speeds import (
-    ACCELERATION_CONSTANT,
-    BASE_OX,
-    CHANGE_RAMP_CONSTANT,
-    OC_MAX,
-    OS_MAX,
-    OX_MAX,
-    OX_MIN,
-    S_RANGE_MAX,
-    SPEED_DATA_MAX,
-    TACC_CONSTANT,
-    SpeedSettings,
-    internal_ox,
-    speed_constraint_violation,
-)
+__all__ = ["Piece", "Segment", "ramp", "ramp_distance", "ramp_duration"]
 
 
 @dataclass(frozen=True)

@@ -15,6 +15,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
+from gateway.protocol.speeds import SpeedSettings
 from gateway.sim.course import AxisEvent, AxisEventKind, Motion, Pause, Task, low_run
 from gateway.sim.homing import (
     INP_TIMEOUT,
@@ -29,7 +30,6 @@ from gateway.sim.homing import (
     WaitInp,
 )
 from gateway.sim.kinematics import MotionProfile, plan_jog
-from gateway.sim.profile import SpeedSettings
 from gateway.sim.scene import SensorName, SensorReader
 
 __all__ = ["Next", "Search", "inp_wait", "readings"]

@@ -11,6 +11,7 @@ from __future__ import annotations
 import pytest
 
 from gateway.protocol.reply_values import Contact, SensorLogic, SpeedPoint
+from gateway.protocol.speeds import SpeedSettings
 from gateway.sim.axis import (
     Axis,
     AxisBusy,
@@ -19,7 +20,6 @@ from gateway.sim.axis import (
     Direction,
     SensorName,
 )
-from gateway.sim.profile import SpeedSettings
 from gateway.sim.scene import AxisScene
 
 DEFAULTS = SpeedSettings()

@@ -17,6 +17,7 @@ from typing import Any
 
 import pytest
 
+from gateway.protocol.speeds import SpeedSettings
 from gateway.sim.axis import (
     Axis,
     AxisEvent,
@@ -25,7 +26,6 @@ from gateway.sim.axis import (
     HomingSetup,
     SensorName,
 )
-from gateway.sim.profile import SpeedSettings
 from gateway.sim.scene import AxisScene, EzWiring
 
 DEFAULTS = SpeedSettings()

@@ -25,6 +25,7 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
+from gateway.protocol.speeds import SpeedSettings, internal_ox, speed_constraint_violation
 from gateway.sim.kinematics import (
     MotionKind,
     MotionProfile,
@@ -34,14 +35,7 @@ from gateway.sim.kinematics import (
     plan_move,
     plan_pulse,
 )
-from gateway.sim.profile import (
-    SpeedSettings,
-    internal_ox,
-    ramp,
-    ramp_distance,
-    ramp_duration,
-    speed_constraint_violation,
-)
+from gateway.sim.profile import ramp, ramp_distance, ramp_duration
 
 DEFAULTS = SpeedSettings()
 TACC = 4500 / (24576 * 200) * 300  # 0.274658203125 s (§7-1, defaults)

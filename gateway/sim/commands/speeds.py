@@ -10,9 +10,15 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 from gateway.protocol.reply_values import SpeedPoint
+from gateway.protocol.speeds import (
+    OS_MAX,
+    OX_MAX,
+    OX_MIN,
+    SPEED_DATA_MAX,
+    speed_constraint_violation,
+)
 from gateway.sim.dispatch import Refused, handles
 from gateway.sim.memory import MotorSettings
-from gateway.sim.profile import OS_MAX, OX_MAX, OX_MIN, SPEED_DATA_MAX, speed_constraint_violation
 
 if TYPE_CHECKING:
     from gateway.sim.controller import Controller
