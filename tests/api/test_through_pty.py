@@ -7,10 +7,6 @@ pseudo-terminal. A user's first calls: list the axes, home, move, read back, any
 
 from __future__ import annotations
 
-import asyncio
-import os
-import signal
-import sys
 from collections.abc import AsyncIterator
 from pathlib import Path
 
@@ -21,6 +17,7 @@ from gateway.api.app import create_app
 from gateway.api.security import AuthConfig
 from gateway.service.config import load_config
 from gateway.service.gateway import Gateway
+from tests.sim_process import sim_on_pty
 
 SCALE = 20.0
 CELL = """
@@ -45,16 +42,7 @@ soft_max = 500.0
 
 @pytest.fixture
 async def client(tmp_path: Path) -> AsyncIterator[httpx.AsyncClient]:
-    env = {**os.environ, "XDG_DATA_HOME": str(tmp_path)}
-    exe = Path(sys.executable).parent / "rc233-gateway"
-    sim = await asyncio.create_subprocess_exec(
-        str(exe), "sim", "--pty", "--bodies", "1", "--time-scale", str(SCALE),
-        stdout=asyncio.subprocess.PIPE, env=env,
-    )  # fmt: skip
-    assert sim.stdout is not None
-    try:
-        line = (await asyncio.wait_for(sim.stdout.readline(), 20)).decode()
-        port = line.split("listening on ")[1].split()[0]
+    async with sim_on_pty(tmp_path, "--bodies", "1", "--time-scale", str(SCALE)) as port:
         cell = tmp_path / "cell.toml"
         cell.write_text(CELL.format(port=port))
         gateway = Gateway(load_config(cell), time_scale=SCALE)
@@ -64,9 +52,6 @@ async def client(tmp_path: Path) -> AsyncIterator[httpx.AsyncClient]:
             base = "http://gateway.test/api/v1"
             async with httpx.AsyncClient(transport=transport, base_url=base, timeout=30) as c:
                 yield c
-    finally:
-        sim.send_signal(signal.SIGTERM)
-        assert await asyncio.wait_for(sim.wait(), 20) == 0
 
 
 async def test_first_calls_through_a_pseudo_terminal(client: httpx.AsyncClient) -> None:

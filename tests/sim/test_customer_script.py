@@ -14,14 +14,10 @@ out here: the whole sample, with them, runs in test_sample_233e0.py.
 
 from __future__ import annotations
 
-import asyncio
 import json
-import re
-import signal
-import sys
 from pathlib import Path
 
-GATEWAY = Path(sys.executable).parent / "rc233-gateway"
+from tests.sim_process import run_script, sim_on_pty
 
 PROGRAM = r'''
 """RC-233 mode 0, two motors (after 233E0.BAS of the RC-233 manual, §13-2)."""
@@ -103,24 +99,8 @@ port.close()
 async def test_customer_program_homes_and_loops_over_a_pty(tmp_path: Path) -> None:
     script = tmp_path / "customer.py"
     script.write_text(PROGRAM, encoding="utf-8")
-    sim = await asyncio.create_subprocess_exec(
-        str(GATEWAY), "sim", "--pty", "--time-scale", "50", "--eeprom-dir", str(tmp_path),
-        stdout=asyncio.subprocess.PIPE,
-    )  # fmt: skip
-    assert sim.stdout is not None
-    try:
-        line = (await asyncio.wait_for(sim.stdout.readline(), 20)).decode()
-        found = re.search(r"listening on (\S+)", line)
-        assert found, line
-        customer = await asyncio.create_subprocess_exec(
-            sys.executable, str(script), found.group(1), "2",
-            stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.PIPE,
-        )  # fmt: skip
-        out, err = await asyncio.wait_for(customer.communicate(), 50)
-        assert customer.returncode == 0, err.decode()
-    finally:
-        sim.send_signal(signal.SIGTERM)
-        assert await asyncio.wait_for(sim.wait(), 20) == 0
+    async with sim_on_pty(tmp_path, "--time-scale", "50") as device:
+        out = await run_script(script, device, "2")
 
     lines = [json.loads(x) for x in out.decode().splitlines()]
     homing = [["1", "0", "00000000"], ["2", "0", "00000000"]]

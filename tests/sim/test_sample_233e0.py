@@ -24,14 +24,10 @@ stops it on a limit error (§10 9 ⑦: a step-out sets bit 1).
 
 from __future__ import annotations
 
-import asyncio
 import json
-import re
-import signal
-import sys
 from pathlib import Path
 
-GATEWAY = Path(sys.executable).parent / "rc233-gateway"
+from tests.sim_process import run_script, sim_on_pty
 
 SCENE = "[default]\ndog_period = 1024\n"
 
@@ -109,25 +105,8 @@ async def test_the_manuals_mode_0_sample_runs_to_its_end_over_a_pty(tmp_path: Pa
     script.write_text(PROGRAM, encoding="utf-8")
     scene = tmp_path / "scene.toml"
     scene.write_text(SCENE, encoding="utf-8")
-    sim = await asyncio.create_subprocess_exec(
-        str(GATEWAY), "sim", "--pty", "--time-scale", "50", "--eeprom-dir", str(tmp_path),
-        "--scene", str(scene),
-        stdout=asyncio.subprocess.PIPE,
-    )  # fmt: skip
-    assert sim.stdout is not None
-    try:
-        line = (await asyncio.wait_for(sim.stdout.readline(), 20)).decode()
-        found = re.search(r"listening on (\S+)", line)
-        assert found, line
-        customer = await asyncio.create_subprocess_exec(
-            sys.executable, str(script), found.group(1), "2",
-            stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.PIPE,
-        )  # fmt: skip
-        out, err = await asyncio.wait_for(customer.communicate(), 50)
-        assert customer.returncode == 0, err.decode()
-    finally:
-        sim.send_signal(signal.SIGTERM)
-        assert await asyncio.wait_for(sim.wait(), 20) == 0
+    async with sim_on_pty(tmp_path, "--time-scale", "50", "--scene", str(scene)) as device:
+        out = await run_script(script, device, "2")
 
     lines = [json.loads(x) for x in out.decode().splitlines()]
     homing = [
