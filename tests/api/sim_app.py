@@ -12,7 +12,6 @@ own line log, so a test asserts the bytes on the wire.
 
 from __future__ import annotations
 
-import asyncio
 from collections.abc import AsyncIterator, Callable, Sequence
 from contextlib import asynccontextmanager
 from dataclasses import dataclass
@@ -24,7 +23,7 @@ from fastapi import FastAPI
 
 from gateway.api.app import create_app
 from gateway.api.security import AuthConfig, TokenBook, TokenEntry, hash_token
-from gateway.bus.state_types import Change, ControllerState
+from gateway.bus.state_types import ControllerState
 from gateway.service.events import ServiceEvent
 from gateway.service.gateway import Gateway
 from gateway.service.leases import Leases
@@ -36,6 +35,7 @@ from gateway.sim.clock import RecordKind, SimClock
 from gateway.sim.loop import SimLoop
 from gateway.sim.serve import SimPort
 from gateway.transport.pipe import PipeTransport
+from tests.state_waits import until_state
 
 #: Device seconds per real second in the API tests.
 SCALE = 50.0
@@ -121,19 +121,7 @@ class Api:
 
     async def until(self, check: Callable[[], bool], timeout: float = WAIT) -> None:
         """Wait until ``check()`` holds, woken by the state cache's changes (no sleeping)."""
-        changed = asyncio.Event()
-
-        def wake(_: Change) -> None:
-            changed.set()
-
-        unlisten = self.gateway.state.listen(wake)
-        try:
-            async with asyncio.timeout(timeout):
-                while not check():
-                    changed.clear()
-                    await changed.wait()
-        finally:
-            unlisten()
+        await until_state(self.gateway.state, check, timeout)
 
     async def identified(self, bodies: Sequence[str] | None = None) -> None:
         """Every controller read once by the poller (mode known, positions read)."""

@@ -8,7 +8,6 @@ never on a sleep.
 
 from __future__ import annotations
 
-import asyncio
 from collections.abc import AsyncIterator, Callable
 from dataclasses import dataclass
 from itertools import pairwise
@@ -28,6 +27,7 @@ from gateway.sim.control import Controls
 from gateway.sim.loop import SimLoop
 from gateway.sim.serve import SimPort
 from gateway.transport.pipe import PipeTransport
+from tests.state_waits import until_state
 
 LOOP = "L"
 ALL_BODIES = "0123456789ABCDE"  # 15 controllers: the most one '$' loop holds (§3-III)
@@ -49,15 +49,7 @@ class Rig:
 
     async def until(self, check: Callable[[], bool], timeout: float = 20.0) -> None:
         """Wait (real seconds) until ``check()`` holds, re-checked on every state change."""
-        changed = asyncio.Event()
-        stop = self.state.listen(lambda _c: changed.set())
-        try:
-            async with asyncio.timeout(timeout):
-                while not check():
-                    changed.clear()
-                    await changed.wait()
-        finally:
-            stop()
+        await until_state(self.state, check, timeout)
 
     async def identified(self, bodies: str, timeout: float = 30.0) -> None:
         """Wait until every controller of ``bodies`` was read through, framing included."""
