@@ -108,11 +108,10 @@ def _auth(args: argparse.Namespace, config: GatewayConfig) -> AuthConfig:
     except ValueError as exc:
         raise ConfigError(str(exc)) from None
     if not auth.no_auth and not len(auth.book):
-        where = "loopback" if is_loopback(args.host) else args.host
         raise ConfigError(
             f"--host {args.host}: no API tokens are configured, so nobody could use the API; "
             "add [[security.tokens]] (`rc233-gateway token`)"
-            + (" or give --no-auth" if where == "loopback" else " or bind to 127.0.0.1")
+            + (" or give --no-auth" if is_loopback(args.host) else " or bind to 127.0.0.1")
         )
     return auth
 
@@ -177,9 +176,6 @@ def _main(args: argparse.Namespace) -> int:
     )
     try:
         return asyncio.run(serve(args))
-    except (ConfigError, SceneError) as exc:
-        print(f"rc233-gateway serve: {exc}", file=sys.stderr)
-        return 2
-    except OSError as exc:
+    except (ConfigError, SceneError, OSError) as exc:
         print(f"rc233-gateway serve: {exc}", file=sys.stderr)
         return 2
