@@ -59,7 +59,7 @@ class LoopSource(Protocol):
     """What the metrics read of a loop scheduler (``gateway.bus.LoopScheduler``)."""
 
     @property
-    def events(self) -> EventBus:
+    def events(self) -> EventBus[BusEvent]:
         """The scheduler's events (``TransactionDone``)."""
 
     @property

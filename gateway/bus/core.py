@@ -15,7 +15,13 @@ from dataclasses import dataclass
 
 from gateway.bus.config import LoopConfig
 from gateway.bus.counters import Counters
-from gateway.bus.events import EventBus, FramingChanged, ReplyObserved, SelectionChanged
+from gateway.bus.events import (
+    BusEvent,
+    EventBus,
+    FramingChanged,
+    ReplyObserved,
+    SelectionChanged,
+)
 from gateway.bus.framing_track import FramingTracker, hint_from_reply
 from gateway.bus.link import Link, LinkLost
 from gateway.bus.requests import ReplyKind
@@ -78,7 +84,7 @@ class LoopCore:
         timing: Timing,
         link: Link,
         counters: Counters,
-        bus: EventBus,
+        bus: EventBus[BusEvent],
         clock: Callable[[], float],
     ) -> None:
         self.name = name

@@ -14,6 +14,7 @@ import asyncio
 import logging
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Generic, TypeVar
 
 from gateway.bus.counters import CountersSnapshot
 from gateway.bus.requests import Outcome, Priority
@@ -120,19 +121,23 @@ class SelectionChanged(BusEvent):
     motor: int | None
 
 
-Callback = Callable[[BusEvent], None]
+EventT = TypeVar("EventT")
 
 
-class EventBus:
-    """Publish events to callbacks and asyncio queues, in the order they happen."""
+class EventBus(Generic[EventT]):
+    """Publish events to callbacks and asyncio queues, in the order they happen.
+
+    The loop scheduler's bus carries ``BusEvent``s; the service layer's ``ServiceEvents`` is
+    the same bus for its own events.
+    """
 
     def __init__(self) -> None:
-        self._callbacks: list[Callback] = []
-        self._queues: list[asyncio.Queue[BusEvent]] = []
+        self._callbacks: list[Callable[[EventT], None]] = []
+        self._queues: list[asyncio.Queue[EventT]] = []
         #: events dropped because a queue subscriber fell behind (oldest dropped first)
         self.dropped = 0
 
-    def subscribe(self, callback: Callback) -> Callable[[], None]:
+    def subscribe(self, callback: Callable[[EventT], None]) -> Callable[[], None]:
         """Call ``callback(event)`` for every event from now on; returns the unsubscriber."""
         self._callbacks.append(callback)
 
@@ -142,22 +147,22 @@ class EventBus:
 
         return unsubscribe
 
-    def queue(self, maxsize: int = 10_000) -> asyncio.Queue[BusEvent]:
+    def queue(self, maxsize: int = 10_000) -> asyncio.Queue[EventT]:
         """A queue that receives every event from now on (``unqueue`` to stop).
 
         When it is full the oldest event is dropped (and counted in ``dropped``), so a slow
         reader loses history, never the newest state.
         """
-        q: asyncio.Queue[BusEvent] = asyncio.Queue(maxsize)
+        q: asyncio.Queue[EventT] = asyncio.Queue(maxsize)
         self._queues.append(q)
         return q
 
-    def unqueue(self, q: asyncio.Queue[BusEvent]) -> None:
+    def unqueue(self, q: asyncio.Queue[EventT]) -> None:
         """Stop feeding ``q``."""
         if q in self._queues:
             self._queues.remove(q)
 
-    def publish(self, event: BusEvent) -> None:
+    def publish(self, event: EventT) -> None:
         """Deliver ``event`` to every subscriber now."""
         for callback in list(self._callbacks):
             try:

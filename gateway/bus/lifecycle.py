@@ -21,7 +21,14 @@ from enum import StrEnum
 from gateway.bus.config import LoopConfig
 from gateway.bus.core import LoopCore
 from gateway.bus.counters import Counters, CountersSnapshot
-from gateway.bus.events import EventBus, LinkDown, LinkUp, TransactionDone, UnsolicitedMessage
+from gateway.bus.events import (
+    BusEvent,
+    EventBus,
+    LinkDown,
+    LinkUp,
+    TransactionDone,
+    UnsolicitedMessage,
+)
 from gateway.bus.framing_track import hint_from_stray
 from gateway.bus.link import Link, LinkLost
 from gateway.bus.queue import Request, RequestQueue
@@ -62,7 +69,7 @@ class LoopLifecycle:
         self.transport = transport
         self.clock = clock
         self.counters = Counters()
-        self.events = EventBus()
+        self.events: EventBus[BusEvent] = EventBus()
         self.trace = LineTrace(config.trace_size)
         self.timing = Timing(
             baud=config.baud or transport.baud,

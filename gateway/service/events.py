@@ -2,21 +2,20 @@
 
 State changes are the state cache's (numbered there); these are the other things a dashboard
 or a monitoring system wants to see as they happen. The WebSocket feed (``feed``) numbers both
-in one stream. Publishing is synchronous and never waits on a listener.
+in one stream. Publishing is synchronous and never waits on a subscriber.
 """
 
 from __future__ import annotations
 
-import logging
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from enum import StrEnum
 from types import MappingProxyType
 from typing import Any
 
-__all__ = ["EventKind", "ServiceEvent", "ServiceEvents"]
+from gateway.bus.events import EventBus
 
-log = logging.getLogger("gateway.service")
+__all__ = ["EventKind", "ServiceEvent", "ServiceEvents"]
 
 
 class EventKind(StrEnum):
@@ -39,26 +38,6 @@ class ServiceEvent:
     data: Mapping[str, Any] = field(default_factory=lambda: MappingProxyType({}))
 
 
-class ServiceEvents:
-    """Synchronous publish/listen of ``ServiceEvent``s."""
-
-    def __init__(self) -> None:
-        self._listeners: list[Callable[[ServiceEvent], None]] = []
-
-    def listen(self, callback: Callable[[ServiceEvent], None]) -> Callable[[], None]:
-        """Call ``callback`` with every event; returns the unsubscribe."""
-        self._listeners.append(callback)
-
-        def unsubscribe() -> None:
-            if callback in self._listeners:
-                self._listeners.remove(callback)
-
-        return unsubscribe
-
-    def publish(self, event: ServiceEvent) -> None:
-        """Hand ``event`` to every listener; one failing listener does not stop the others."""
-        for callback in list(self._listeners):
-            try:
-                callback(event)
-            except Exception:
-                log.exception("event listener %r failed", callback)
+class ServiceEvents(EventBus[ServiceEvent]):
+    """The service layer's events: the loop scheduler's ``EventBus``, carrying
+    ``ServiceEvent``s (``subscribe``, ``publish``; a failing subscriber is logged and skipped)."""

@@ -173,7 +173,7 @@ class Feed:
             self._views[topic] = self._view(topic)
         self._unlisten = [cache.listen(self._on_change)]
         if events is not None:
-            self._unlisten.append(events.listen(self._on_event))
+            self._unlisten.append(events.subscribe(self._on_event))
 
     # ------------------------------------------------------------------ clients
 

@@ -158,7 +158,7 @@ async def running_app(
     else:
         app = create_app(gateway, auth=AuthConfig(no_auth=True))
     events: list[ServiceEvent] = []
-    gateway.events.listen(events.append)
+    gateway.events.subscribe(events.append)
     try:
         async with app.router.lifespan_context(app):
             transport = httpx.ASGITransport(app=app)
