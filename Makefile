@@ -1,22 +1,50 @@
 # The two commands a newcomer needs: `make run` and `make test`.
 # Each creates its own virtual environment (.venv) and installs what it needs,
 # so both work on a fresh machine with nothing but python3 (>= 3.11).
+# `make run` installs the runtime dependencies only (what `pip install rc233-gateway` brings);
+# `make test` adds the `test` extra, the AsyncAPI parser (npm) and the Debian tools the
+# deployment tests drive (ser2net, systemd-analyze).
 
-PYTHON ?= python3
-VENV   := .venv
-BIN    := $(VENV)/bin
-STAMP  := $(VENV)/.installed-$(shell $(PYTHON) -c "import hashlib,sys;print(hashlib.sha1(open('pyproject.toml','rb').read()).hexdigest()[:12])")
+PYTHON  ?= python3
+VENV    := .venv
+BIN     := $(VENV)/bin
+HASH    := $(shell $(PYTHON) -c "import hashlib,sys;print(hashlib.sha1(open('pyproject.toml','rb').read()).hexdigest()[:12])")
+RUNTIME := $(VENV)/.runtime-$(HASH)
+STAMP   := $(VENV)/.installed-$(HASH)
+NODE_DIR   := tools/asyncapi
+NODE_STAMP := $(NODE_DIR)/node_modules/.installed
 
-.PHONY: run test lint typecheck layers unit contract bench clean
+.PHONY: run test lint typecheck layers unit contract bench clean system-tools
 
-$(STAMP): pyproject.toml
+$(RUNTIME): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
-	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -e .
+	rm -f $(VENV)/.runtime-*
+	touch $(RUNTIME)
+
+$(STAMP): $(RUNTIME)
 	$(BIN)/python -m pip install --quiet -e '.[test]'
 	rm -f $(VENV)/.installed-*
 	touch $(STAMP)
 
-run: $(STAMP)
+# Debian tools the tests drive, installed when missing (CI runs as root): Node.js and npm for
+# the AsyncAPI parser, ser2net in front of the simulator, systemd-analyze for the unit file.
+system-tools:
+	@missing=""; \
+	command -v node >/dev/null || missing="$$missing nodejs"; \
+	command -v npm >/dev/null || missing="$$missing npm"; \
+	command -v ser2net >/dev/null || missing="$$missing ser2net"; \
+	command -v systemd-analyze >/dev/null || missing="$$missing systemd"; \
+	if [ -n "$$missing" ]; then \
+		echo "installing$$missing"; \
+		apt-get update -q && DEBIAN_FRONTEND=noninteractive apt-get install -y -q $$missing; \
+	fi
+
+$(NODE_STAMP): $(NODE_DIR)/package.json $(NODE_DIR)/package-lock.json | system-tools
+	cd $(NODE_DIR) && npm ci --no-audit --no-fund --loglevel=error
+	touch $(NODE_STAMP)
+
+run: $(RUNTIME)
 	$(BIN)/rc233-gateway serve --simulate --host 127.0.0.1 --port 8233
 
 lint: $(STAMP)
@@ -29,7 +57,7 @@ layers: $(STAMP)
 	$(BIN)/lint-imports
 
 # The protocol layer is what everything stands on: it must stay >= 95 % covered (issue 2).
-unit: $(STAMP)
+unit: $(STAMP) $(NODE_STAMP) system-tools
 	$(BIN)/pytest -m "not contract" --cov --cov-report=term --cov-fail-under=90
 	$(BIN)/coverage report --include='gateway/protocol/*' --fail-under=95 > /dev/null \
 		|| { echo "gateway/protocol/ line coverage is under 95 %"; exit 1; }
@@ -47,4 +75,4 @@ bench: $(STAMP)
 test: lint typecheck layers unit contract bench
 
 clean:
-	rm -rf $(VENV) .pytest_cache .mypy_cache .ruff_cache .coverage .hypothesis
+	rm -rf $(VENV) $(NODE_DIR)/node_modules .pytest_cache .mypy_cache .ruff_cache .coverage .hypothesis

@@ -16,6 +16,7 @@ from contextlib import asynccontextmanager
 from fastapi import FastAPI
 from fastapi.middleware.cors import CORSMiddleware
 
+from gateway import __version__
 from gateway.api import routes_axes, routes_controllers, routes_loops, routes_operations, ws
 from gateway.api.audit import AuditLog, install_audit
 from gateway.api.health import install_operations
@@ -70,7 +71,7 @@ def create_app(gateway: Gateway, *, auth: AuthConfig) -> FastAPI:
 
     app = FastAPI(
         title="rc233-gateway",
-        version="0.1.0",
+        version=__version__,
         description=DESCRIPTION,
         lifespan=lifespan,
         openapi_url=f"{API_PREFIX}/openapi.json",

@@ -7,6 +7,7 @@ import json
 import sys
 from collections.abc import Sequence
 
+from gateway import __version__
 from gateway.cli.documents import add_document_parsers
 from gateway.cli.serve import add_serve_parser
 from gateway.errors import InvalidInputError
@@ -53,6 +54,7 @@ def _parse(args: argparse.Namespace) -> int:
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of every subcommand."""
     parser = argparse.ArgumentParser(prog="rc233-gateway", description=__doc__)
+    parser.add_argument("--version", action="version", version=f"rc233-gateway {__version__}")
     sub = parser.add_subparsers(dest="cmd", required=True)
     cat = sub.add_parser("catalog", help="print every command of the manual")
     cat.add_argument("--json", action="store_true", help="one JSON object per mnemonic")
