@@ -21,6 +21,7 @@ from gateway.api import routes_axes, routes_controllers, routes_loops, routes_op
 from gateway.api.audit import AuditLog, install_audit
 from gateway.api.health import install_operations
 from gateway.api.idempotency import install_idempotency
+from gateway.api.openapi_docs import install_openapi_docs, operation_id
 from gateway.api.problems import install_problem_handlers
 from gateway.api.security import AuthConfig, install_security
 from gateway.service.axes import AxisService
@@ -77,6 +78,7 @@ def create_app(gateway: Gateway, *, auth: AuthConfig) -> FastAPI:
         openapi_url=f"{API_PREFIX}/openapi.json",
         docs_url=f"{API_PREFIX}/docs",
         redoc_url=None,
+        generate_unique_id_function=operation_id,
     )
     app.state.gateway = gateway
     app.state.leases = leases
@@ -94,6 +96,7 @@ def create_app(gateway: Gateway, *, auth: AuthConfig) -> FastAPI:
     install_idempotency(app)
     install_audit(app, audit)
     install_operations(app, gateway)
+    install_openapi_docs(app)
     origins = list(gateway.config.security.cors_origins)
     if origins:
         app.add_middleware(

@@ -140,7 +140,7 @@ class ControllerService:
             up=scheduler.state is LinkState.UP,
             cause=scheduler.cause or None,
             queue_depth=scheduler.queue_depth,
-            counters={k: float(v) for k, v in counters.items() if isinstance(v, int | float)},
+            counters={k: v for k, v in counters.items() if isinstance(v, int | float)},
         )
         settings = ref.settings
         return loop_view(ref.name, settings.port, settings.baud, list(ref.bodies), state)

@@ -13,9 +13,9 @@ from __future__ import annotations
 
 import dataclasses
 import enum
-from typing import Any
+from typing import Annotated, Any
 
-from pydantic import BaseModel, Field
+from pydantic import BaseModel, Field, WithJsonSchema
 
 from gateway.bus.requests import CommandResult, ReplyKind, TransactionResult
 from gateway.protocol.models import Command
@@ -25,6 +25,7 @@ from gateway.service.topology import ControllerRef
 from gateway.service.views import wall_time
 
 __all__ = [
+    "REPLY_VALUE_SCHEMA",
     "VALUE_DOC",
     "CommandResponse",
     "CommandView",
@@ -49,6 +50,34 @@ VALUE_DOC = (
     "`program_state` '1' running, '0' ended, 'P' paused, 'E' ended by an error; "
     "`program_text` the program text; `version` {version, stamp}."
 )
+
+
+_SCALAR: list[dict[str, Any]] = [{"type": "integer"}, {"type": "string"}, {"type": "boolean"}]
+_PORT_BYTE: dict[str, Any] = {
+    "type": "object",
+    "title": "PortByteValue",
+    "properties": {
+        "value": {"type": "integer", "minimum": 0, "maximum": 255},
+        "hex": {"type": "string", "pattern": "^[0-9A-F]{2}$"},
+        "on": {"type": "array", "items": {"type": "integer", "minimum": 0, "maximum": 7}},
+    },
+    "required": ["value", "hex", "on"],
+    "additionalProperties": False,
+}
+#: The JSON Schema of ``reply_json``'s output (what ``VALUE_DOC`` lists): null, a scalar, a
+#: port byte, or an object whose members are scalars or port bytes.
+REPLY_VALUE_SCHEMA: dict[str, Any] = {
+    "anyOf": [
+        {"type": "null"},
+        *_SCALAR,
+        _PORT_BYTE,
+        {
+            "type": "object",
+            "title": "ReplyFields",
+            "additionalProperties": {"anyOf": [{"type": "null"}, *_SCALAR, _PORT_BYTE]},
+        },
+    ]
+}
 
 
 def port_json(value: PortByte) -> dict[str, Any]:
@@ -86,7 +115,7 @@ class CommandView(BaseModel):
     reply: ReplyKind = Field(description="what came back (after any retries)")
     outcome: str = Field(description="done, not_done or unknown (whether it took effect)")
     reply_format: str = Field(description="the shape of the reply's data")
-    value: Any = Field(None, description=VALUE_DOC)
+    value: Annotated[Any, WithJsonSchema(REPLY_VALUE_SCHEMA)] = Field(None, description=VALUE_DOC)
     attempts: int
     late: bool = Field(description="the reply came after its time-out")
     note: str = ""

@@ -12,9 +12,10 @@ from dataclasses import dataclass, field
 from enum import StrEnum
 from typing import Any
 
-from pydantic import BaseModel, Field
+from pydantic import BaseModel, ConfigDict, Field
 
 from gateway.bus.requests import ReplyKind, TransactionResult
+from gateway.service.axis_types import Direction, HomeMethod, JogSpeed, Unit
 from gateway.service.topology import AxisRef
 
 __all__ = [
@@ -61,6 +62,38 @@ class OperationError(BaseModel):
         return cls(kind=kind, title=title, detail=detail, outcome=outcome)
 
 
+class _Asked(BaseModel):
+    # Forbidding extra fields is what tells a jog (direction, speed) from a step (direction).
+    model_config = ConfigDict(extra="forbid")
+
+
+class MoveAsked(_Asked):
+    """A move as asked (kind ``move``)."""
+
+    position: float
+    relative: bool
+    unit: Unit
+
+
+class HomeAsked(_Asked):
+    """An origin search as asked (kind ``home``)."""
+
+    method: HomeMethod
+
+
+class JogAsked(_Asked):
+    """A jog as asked (kind ``jog``); ``speed`` follows a later change of speed."""
+
+    direction: Direction
+    speed: JogSpeed
+
+
+class StepAsked(_Asked):
+    """One pulse as asked (kind ``step``)."""
+
+    direction: Direction
+
+
 class OperationView(BaseModel):
     """One motion request and how it went."""
 
@@ -68,7 +101,9 @@ class OperationView(BaseModel):
     axis: str = Field(description="the axis id, loop.body.motor")
     axis_name: str | None
     kind: str = Field(description="move, home, jog or step")
-    request: dict[str, Any] = Field(description="the request as given")
+    request: MoveAsked | HomeAsked | JogAsked | StepAsked = Field(
+        description="the request as given (its shape follows `kind`)"
+    )
     state: OperationState
     target: int | None = Field(description="the target position in pulses, when there is one")
     target_user: float | None

@@ -11,8 +11,9 @@ from __future__ import annotations
 import time
 from typing import Literal
 
-from pydantic import BaseModel, Field
+from pydantic import BaseModel, Field, TypeAdapter
 
+from gateway.bus.counters import CountersSnapshot
 from gateway.bus.state_types import AxisState, ControllerState, ErrorKind, Latch, LoopState
 from gateway.service.topology import AxisRef, ControllerRef
 
@@ -118,7 +119,10 @@ class LoopView(BaseModel):
     cause: str | None = Field(description="why the loop is down")
     queue_depth: int
     controllers: list[str]
-    counters: dict[str, float]
+    counters: CountersSnapshot | None = Field(
+        description="the scheduler's counters (integers, busy_time in seconds); null before "
+        "the loop's first transaction"
+    )
 
 
 def axis_view(ref: AxisRef, state: AxisState) -> AxisView:
@@ -189,6 +193,10 @@ def controller_view(ref: ControllerRef, state: ControllerState) -> ControllerVie
     )
 
 
+#: The cache keeps counters as a mapping; validated back into integers (busy_time a float).
+_COUNTERS = TypeAdapter(CountersSnapshot)
+
+
 def loop_view(name: str, port: str, baud: int, bodies: list[str], state: LoopState) -> LoopView:
     """The view of one loop."""
     return LoopView(
@@ -199,5 +207,5 @@ def loop_view(name: str, port: str, baud: int, bodies: list[str], state: LoopSta
         cause=state.cause,
         queue_depth=state.queue_depth,
         controllers=[f"{name}.{b}" for b in bodies],
-        counters=dict(state.counters),
+        counters=_COUNTERS.validate_python(dict(state.counters)) if state.counters else None,
     )

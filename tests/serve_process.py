@@ -1,0 +1,77 @@
+"""``rc233-gateway serve`` as a separate process, the way an integrator runs it.
+
+For the tests of the integrator's documents and the examples: a client generated from
+openapi.json, the MES example and the AsyncAPI checks talk to a real server over TCP.
+The server's stderr is read all along (a full pipe would stall it) and kept for messages.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import os
+import signal
+import socket
+import sys
+from collections.abc import AsyncIterator
+from contextlib import asynccontextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+
+GATEWAY = Path(sys.executable).parent / "rc233-gateway"
+#: Homing takes about 25 s at real time; at this scale about a second.
+TIME_SCALE = 25.0
+
+
+def free_port() -> int:
+    """A TCP port nobody listens on now."""
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return int(probe.getsockname()[1])
+
+
+@dataclass
+class Served:
+    """A running server: its base URL and the lines it wrote to stderr so far."""
+
+    url: str
+    port: int
+    log: list[str] = field(default_factory=list)
+
+
+@asynccontextmanager
+async def serve(tmp_path: Path, *options: str) -> AsyncIterator[Served]:
+    """Start ``rc233-gateway serve`` with ``options`` (default ``--simulate`` at
+    ``TIME_SCALE``) on a free port; after the block SIGINT must end it with exit code 0."""
+    port = free_port()
+    argv = options or ("--simulate", "--time-scale", str(TIME_SCALE))
+    env = {**os.environ, "XDG_DATA_HOME": str(tmp_path)}
+    if "--simulate" in argv and "--eeprom-dir" not in argv:
+        argv = (*argv, "--eeprom-dir", str(tmp_path / "eeprom"))
+    process = await asyncio.create_subprocess_exec(
+        str(GATEWAY), "serve", *argv, "--port", str(port),
+        stdout=asyncio.subprocess.DEVNULL, stderr=asyncio.subprocess.PIPE, env=env,
+    )  # fmt: skip
+    assert process.stderr is not None
+    served = Served(f"http://127.0.0.1:{port}", port)
+    started = asyncio.Event()
+
+    async def read_log() -> None:
+        assert process.stderr is not None
+        async for raw in process.stderr:
+            line = raw.decode(errors="replace")
+            served.log.append(line)
+            if "Application startup complete" in line:
+                started.set()
+        started.set()  # the process ended: the wait below sees it
+
+    reader = asyncio.create_task(read_log())
+    try:
+        await asyncio.wait_for(started.wait(), 30)
+        assert process.returncode is None, "".join(served.log)
+        yield served
+    finally:
+        if process.returncode is None:
+            process.send_signal(signal.SIGINT)
+        code = await asyncio.wait_for(process.wait(), 30)
+        await asyncio.wait_for(reader, 5)
+        assert code == 0, "".join(served.log)
