@@ -39,12 +39,14 @@ class Served:
 
 
 @asynccontextmanager
-async def serve(tmp_path: Path, *options: str) -> AsyncIterator[Served]:
+async def serve(
+    tmp_path: Path, *options: str, env: dict[str, str] | None = None
+) -> AsyncIterator[Served]:
     """Start ``rc233-gateway serve`` with ``options`` (default ``--simulate`` at
     ``TIME_SCALE``) on a free port; after the block SIGINT must end it with exit code 0."""
     port = free_port()
     argv = options or ("--simulate", "--time-scale", str(TIME_SCALE))
-    env = {**os.environ, "XDG_DATA_HOME": str(tmp_path)}
+    env = {**os.environ, "XDG_DATA_HOME": str(tmp_path), **(env or {})}
     if "--simulate" in argv and "--eeprom-dir" not in argv:
         argv = (*argv, "--eeprom-dir", str(tmp_path / "eeprom"))
     process = await asyncio.create_subprocess_exec(

@@ -17,6 +17,7 @@ import argparse
 import asyncio
 import gc
 import logging
+import socket
 import sys
 from pathlib import Path
 from types import FrameType
@@ -27,10 +28,13 @@ import uvicorn
 from gateway.api.app import create_app
 from gateway.api.security import AuthConfig, is_loopback
 from gateway.api.ws import uvicorn_ws_options
+from gateway.cli.logs import configure_logging
+from gateway.cli.notify import notify
 from gateway.protocol.framing import Series
 from gateway.service.config import ConfigError, GatewayConfig, load_config
 from gateway.service.gateway import Gateway
 from gateway.service.simulated import SIM_LOOP, simulated_config
+from gateway.service.state_log import StateLog
 from gateway.sim.cli import build_loop, default_eeprom_dir, host_port, parse_bodies, positive
 from gateway.sim.clock import SimClock
 from gateway.sim.control import Controls, serve_control
@@ -59,6 +63,17 @@ class _Server(uvicorn.Server):
         super().handle_exit(sig, frame)
         self._captured_signals.clear()
 
+    async def startup(self, sockets: list[socket.socket] | None = None) -> None:
+        """Start, then tell systemd (``Type=notify``) that HTTP requests are served."""
+        await super().startup(sockets=sockets)
+        if self.started:
+            notify("READY=1")
+
+    async def shutdown(self, sockets: list[socket.socket] | None = None) -> None:
+        """Tell systemd the service is stopping, then stop."""
+        notify("STOPPING=1")
+        await super().shutdown(sockets=sockets)
+
 
 def add_serve_parser(subparsers: Any) -> argparse.ArgumentParser:
     """Add ``serve`` to the subcommands of ``rc233-gateway``; it sets ``func``."""
@@ -83,6 +98,12 @@ def add_serve_parser(subparsers: Any) -> argparse.ArgumentParser:
     sim.add_argument("--time-scale", type=positive, default=1.0, metavar="X", help="speed-up")
     sim.add_argument("--control", type=host_port, metavar="HOST:PORT", help="control surface")
     serve.add_argument("-v", "--verbose", action="store_true", help="debug logging")
+    serve.add_argument(
+        "--log-format",
+        choices=["text", "json"],
+        default="text",
+        help="text lines (default) or JSON lines with loop/controller context",
+    )
     serve.set_defaults(func=_main)
     return serve
 
@@ -127,6 +148,7 @@ async def serve(args: argparse.Namespace) -> int:
         config = load_config(args.config)
     auth = _auth(args, config)
     gateway = Gateway(config, transports=transports, time_scale=args.time_scale)
+    StateLog(gateway).start()
     app = create_app(gateway, auth=auth)
     control: asyncio.Server | None = None
     if sim is not None and args.control:
@@ -144,6 +166,7 @@ async def serve(args: argparse.Namespace) -> int:
             host=args.host,
             port=args.port,
             log_level="debug" if args.verbose else "info",
+            log_config=None,  # uvicorn's lines go through the one handler (text or JSON)
             **uvicorn_ws_options(config.ws),
             timeout_graceful_shutdown=10,
         )
@@ -169,11 +192,7 @@ async def serve(args: argparse.Namespace) -> int:
 
 
 def _main(args: argparse.Namespace) -> int:
-    logging.basicConfig(
-        level=logging.DEBUG if args.verbose else logging.INFO,
-        format="%(asctime)s %(levelname)s %(name)s: %(message)s",
-        stream=sys.stderr,
-    )
+    configure_logging(args.log_format, verbose=args.verbose)
     try:
         return asyncio.run(serve(args))
     except (ConfigError, SceneError, OSError) as exc:
