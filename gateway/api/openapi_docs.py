@@ -166,9 +166,7 @@ def document_for_integrators(schema: dict[str, Any]) -> None:
                 if not any(p.get("name") == HEADER for p in parameters):
                     parameters.append(_idempotency_parameter())
     schema["tags"] = [
-        {"name": tag, "description": description}
-        for _, tag, description in TAGS
-        if tag in used
+        {"name": tag, "description": description} for _, tag, description in TAGS if tag in used
     ] + [{"name": tag} for tag in sorted(used - {t for _, t, _ in TAGS})]
     _name_enums(schema.get("components", {}).get("schemas", {}))
     _name_enums(schema.get("paths", {}))

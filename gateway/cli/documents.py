@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from gateway.api.app import create_app
+from gateway.api.asyncapi import asyncapi_document
 from gateway.api.security import AuthConfig, TokenBook, hash_token, new_token
 from gateway.api.ws_messages import ws_schema
 from gateway.service.gateway import Gateway
@@ -23,6 +24,7 @@ __all__ = ["add_document_parsers", "documents", "render"]
 
 OPENAPI_FILE = "openapi.json"
 WS_FILE = "websocket.json"
+ASYNCAPI_FILE = "asyncapi.json"
 
 
 def _never() -> Any:
@@ -30,10 +32,11 @@ def _never() -> Any:
 
 
 def documents() -> dict[str, dict[str, Any]]:
-    """File name -> document: the OpenAPI document and the WebSocket message schema."""
+    """File name -> document: the OpenAPI document, the WebSocket message schema and the
+    WebSocket's AsyncAPI document."""
     gateway = Gateway(simulated_config(), transports={SIM_LOOP: PipeTransport(_never)})
     app = create_app(gateway, auth=AuthConfig(TokenBook()))
-    return {OPENAPI_FILE: app.openapi(), WS_FILE: ws_schema()}
+    return {OPENAPI_FILE: app.openapi(), WS_FILE: ws_schema(), ASYNCAPI_FILE: asyncapi_document()}
 
 
 def render(document: dict[str, Any]) -> str:
@@ -62,7 +65,9 @@ def _token(args: argparse.Namespace) -> int:
 
 def add_document_parsers(subparsers: Any) -> None:
     """Add ``openapi`` and ``token`` to the subcommands."""
-    doc = subparsers.add_parser("openapi", help="write openapi/openapi.json and websocket.json")
+    doc = subparsers.add_parser(
+        "openapi", help="write openapi/openapi.json, websocket.json and asyncapi.json"
+    )
     doc.add_argument("--out", type=Path, default=Path("openapi"), help="default ./openapi")
     doc.set_defaults(func=_openapi)
     tok = subparsers.add_parser("token", help="make an API token and its configuration lines")

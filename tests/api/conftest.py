@@ -24,6 +24,7 @@ from fastapi import FastAPI
 from websockets.asyncio.client import ClientConnection, connect
 
 from gateway.api import ws
+from gateway.api.asyncapi import asyncapi_document, json_schema_of
 from gateway.api.security import AuthConfig, TokenBook, hash_token, install_security
 from gateway.api.ws_messages import ws_schema
 from gateway.bus.events import ReplyObserved
@@ -45,11 +46,18 @@ SERVER_VALIDATOR = jsonschema_rs.validator_for(
 )
 
 
+#: The messages the AsyncAPI document says the gateway sends (openapi/asyncapi.json).
+ASYNCAPI_VALIDATOR = jsonschema_rs.validator_for(json_schema_of(asyncapi_document(), "send"))
+
+
 def check_server_message(text: str | bytes) -> dict[str, Any]:
-    """Decode one server message and check it against the published schema."""
+    """Decode one server message and check it against the published schemas (websocket.json
+    and the AsyncAPI document)."""
     message: dict[str, Any] = json.loads(text)
     errors = [e.message for e in SERVER_VALIDATOR.iter_errors(message)]
-    assert not errors, f"{message} breaks openapi/ws.json: {errors}"
+    assert not errors, f"{message} breaks openapi/websocket.json: {errors}"
+    errors = [e.message for e in ASYNCAPI_VALIDATOR.iter_errors(message)]
+    assert not errors, f"{message} breaks openapi/asyncapi.json: {errors}"
     return message
 
 
