@@ -9,6 +9,7 @@ from collections.abc import Sequence
 
 from gateway import __version__
 from gateway.cli.documents import add_document_parsers
+from gateway.cli.remote import add_remote_parsers
 from gateway.cli.serve import add_serve_parser
 from gateway.errors import InvalidInputError
 from gateway.protocol.describe import catalog_json, catalog_table
@@ -67,6 +68,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_sim_parser(sub)
     add_serve_parser(sub)
     add_document_parsers(sub)
+    add_remote_parsers(sub)
     return parser
 
 
