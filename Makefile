@@ -48,7 +48,7 @@ run: $(RUNTIME)
 	$(BIN)/rc233-gateway serve --simulate --host 127.0.0.1 --port 8233
 
 lint: $(STAMP)
-	$(BIN)/ruff check gateway tests bench
+	$(BIN)/ruff check gateway tests bench examples
 
 typecheck: $(STAMP)
 	$(BIN)/mypy
