@@ -28,13 +28,15 @@ $(STAMP): $(RUNTIME)
 	touch $(STAMP)
 
 # Debian tools the tests drive, installed when missing (CI runs as root): Node.js and npm for
-# the AsyncAPI parser, ser2net in front of the simulator, systemd-analyze for the unit file.
+# the AsyncAPI parser, ser2net in front of the simulator, systemd-analyze for the unit file,
+# curl for the README's first calls.
 system-tools:
 	@missing=""; \
 	command -v node >/dev/null || missing="$$missing nodejs"; \
 	command -v npm >/dev/null || missing="$$missing npm"; \
 	command -v ser2net >/dev/null || missing="$$missing ser2net"; \
 	command -v systemd-analyze >/dev/null || missing="$$missing systemd"; \
+	command -v curl >/dev/null || missing="$$missing curl"; \
 	if [ -n "$$missing" ]; then \
 		echo "installing$$missing"; \
 		apt-get update -q && DEBIAN_FRONTEND=noninteractive apt-get install -y -q $$missing; \
