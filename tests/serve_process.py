@@ -62,7 +62,8 @@ async def serve(
         async for raw in process.stderr:
             line = raw.decode(errors="replace")
             served.log.append(line)
-            if "Application startup complete" in line:
+            # Not "Application startup complete": uvicorn says that before it binds the port.
+            if "Uvicorn running on" in line:
                 started.set()
         started.set()  # the process ended: the wait below sees it
 
