@@ -44,11 +44,12 @@ async def _start(*argv: str, token: str | None = TOKENS["admin"][0]) -> asyncio.
     )  # fmt: skip
 
 
-async def _read_until(process: asyncio.subprocess.Process, needle: str) -> list[str]:
+async def _read_until(process: asyncio.subprocess.Process, *needles: str) -> list[str]:
+    """Lines of the process's output until one holds every one of ``needles``."""
     assert process.stdout is not None
     lines: list[str] = []
     async with asyncio.timeout(20):
-        while not any(needle in line for line in lines):
+        while not any(all(n in line for n in needles) for line in lines):
             raw = await process.stdout.readline()
             assert raw, "".join(lines) + (await process.stderr.read()).decode()  # type: ignore[union-attr]
             lines.append(raw.decode())
@@ -64,9 +65,9 @@ async def test_trace_follows_the_frames_on_the_wire(served: tuple[Api, str]) -> 
     api, url = served
     trace = await _start("trace", "sim", "--url", url)
     try:
-        # The poller's status reads of controller 1, as sent and as answered.
-        lines = await _read_until(trace, "sim.1")
-        assert any(" tx " in line and "$1" in line for line in lines), lines
+        # The poller's status reads of controller 1 (the empty command), as sent.
+        lines = await _read_until(trace, " tx ", "sim.1")
+        assert any(line.rstrip().endswith("sim.1    $1\\r") for line in lines), lines
     finally:
         await _interrupt(trace)
     # It switched the trace on for itself, and off again when it ended.

@@ -30,6 +30,9 @@ CELL = """
 [[loops]]
 name = "line"
 port = "{url}"
+[loops.timeouts]
+# A device server adds its own latency (and this machine is busy with other tests).
+host_latency = 0.25
 [loops.poll]
 idle_period = 0.5
 [[loops.controllers]]
