@@ -93,7 +93,7 @@ async def test_make_run_serves_the_api_on_a_simulated_loop(tmp_path: Path) -> No
     assert process.stderr is not None
     try:
         lines: list[str] = []
-        while not any("Application startup complete" in line for line in lines):
+        while not any("Uvicorn running on" in line for line in lines):
             line = await asyncio.wait_for(process.stderr.readline(), 30)
             assert line, "".join(lines)
             lines.append(line.decode())
