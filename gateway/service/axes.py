@@ -212,7 +212,18 @@ class AxisService:
     async def speed(self, ident: str) -> SpeedView:
         """Read OH, OL, OS, OC and OX; OC only while stopped (§10 OC), else the last read."""
         ref = self.ref(ident)
-        moving = self.gateway.state.controller(ref.loop, ref.body).moving
+        ctl = self.gateway.state.controller(ref.loop, ref.body)
+        moving = ctl.moving
+        if moving and ctl.selected_motor != ref.motor:
+            # OH, OL, OS, OC are per motor: reading motor m's needs F{m}, and F is refused
+            # while a motor moves (§10 F). The moving motor is the selected one.
+            other = "another motor" if ctl.selected_motor is None else f"motor {ctl.selected_motor}"
+            raise ConflictError(
+                f"the speed data of {ref.id} cannot be read while {other} of controller "
+                f"{ref.controller_id} moves: motor {ref.motor} cannot be selected then "
+                "(§10 F); read it when the motion has ended",
+                field="axis",
+            )
         names = QUERIES_WHILE_MOVING if moving else QUERIES
         known = self._speeds.get(ref.id)
         if moving and known is None:
