@@ -78,8 +78,9 @@ class OperationView(BaseModel):
     units: dict[str, str] = Field(
         description="the unit of every position field: target and position in pulse, "
         "target_user and position_user in `unit`",
-        examples=[{"target": "pulse", "target_user": "mm", "position": "pulse",
-                   "position_user": "mm"}],
+        examples=[
+            {"target": "pulse", "target_user": "mm", "position": "pulse", "position_user": "mm"}
+        ],
     )
     error: OperationError | None
     frames: list[str] = Field(description="the command frames sent (without the CR)")

@@ -63,11 +63,13 @@ async def test_list_and_unknown() -> None:
 
 async def test_a_limit_makes_it_failed() -> None:
     async with running_app() as api:
-        # x starts at 0; jog CCW runs into the scene's CCW limit sensor
+        # x jogs CW toward its soft maximum (94,000) and runs into the scene's CW limit
+        # sensor (65,000 pulses from the power-on position) first
         r = await api.client.post(
-            "/axes/x/jog?wait=true", json={"direction": "ccw", "speed": "high"}
+            "/axes/x/jog?wait=true", json={"direction": "cw", "speed": "high"}
         )
-        op = json_of(r)
+        assert r.status_code == 409, r.text
+        op = r.json()["operation"]
         assert op["state"] == "failed"
         assert op["error"]["kind"] == "limit_error" and "§10" in op["error"]["detail"]
 
