@@ -28,8 +28,12 @@ Ambiguous in the manual, decided in ``docs/manual-notes.md`` ("Framing and the r
 * With ER1 and EL0, '>' may be followed by '@'; the parser decides on the next byte or at
   ``line_quiet()``. With EL0 a '>' while a query is pending likewise waits (the device answers a
   query it refused with a bare '>'). EL1 removes both waits.
-* With EL0 a program's '>text' CR cannot be told from a '>' reply followed by text, and a
-  '>$B#...' CR (``/CC``) from the data reply of the pending query: the pending command wins.
+* With EL0 a program's '>text' CR cannot be told from a '>' reply followed by text by the
+  bytes alone. While a user program may print (``configure(printing=True)``: the scheduler
+  knows), '>' followed by a byte that starts no message is a ``/CO`` line and the expectation
+  stays; the '>' of a general command then waits for its next byte too. Otherwise the pending
+  command wins ('>' answers, the rest is ``Garbled``). A '>$B#...' CR (``/CC``) while a query
+  of that controller is pending is its data reply.
 * '$B#*' and '$B#T' are always unsolicited: no query returns the data '*' or 'T' (§10).
   With SUM1 they are accepted with or without a checksum (the manual does not say).
 * With EE1 + EL1 a general reply is accepted as the echo alone or the echo followed by CR.
