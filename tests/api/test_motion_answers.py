@@ -107,3 +107,21 @@ async def test_speed_of_motor_2_while_motor_1_moves_is_409_and_nothing_is_sent()
         assert "§10 F" in problem["detail"] and problem["field"] == "axis"
         assert not any(t.startswith(("F", "OH", "OL", "OS", "OC")) for t in api.heard("1", mark))
         await api.client.post("/axes/x/stop")
+
+
+async def test_with_wait_an_unknown_outcome_is_a_504_problem_carrying_the_operation() -> None:
+    # The line is cut in the middle of a move: the controller cannot tell how it ended.
+    async with running_app(scale=5.0) as api:
+        waiting = asyncio.ensure_future(
+            api.client.post("/axes/x/move?wait=true", json={"position": 60_000, "unit": "pulse"})
+        )
+        await api.until(lambda: api.cached("1").moving)
+        Controls(api.sim).cut(True)
+        r = await asyncio.wait_for(waiting, 30)
+        Controls(api.sim).cut(False)
+        assert r.status_code == 504, r.text  # was 200 with state unknown
+        problem = r.json()
+        assert problem["type"] == "urn:rc233-gateway:problem:motion-unknown"
+        assert problem["outcome"] == "unknown"
+        assert problem["operation"]["state"] == "unknown"
+        assert r.headers["location"].endswith(problem["operation"]["id"])
