@@ -15,9 +15,12 @@ from collections.abc import AsyncIterator, Callable
 from typing import Any
 
 import pytest
+from websockets.asyncio.client import connect
 
+from gateway.api.app import API_PREFIX
 from gateway.service.events import EventKind, ServiceEvent
 from gateway.sim.clock import RecordKind
+from tests.api.conftest import WsClient, start_uvicorn
 from tests.api.sim_app import WAIT, Api, running_app
 
 PROGRAM = "/controllers/sim.1/program"
@@ -116,3 +119,27 @@ async def test_a_program_stopped_while_it_prints_loses_no_line(api: Api) -> None
     assert 10 <= len(sent) < 200
     assert lines(printed(api)) == [("controller:sim.1", "sim.1", text) for text in sent]
     assert sent == [f"T{n:03d}" for n in range(1, len(sent) + 1)]
+
+
+async def test_a_websocket_client_of_the_controller_gets_every_line_in_order() -> None:
+    async with running_app(("1",)) as api:
+        server, port = await start_uvicorn(api.app)
+        try:
+            url = f"ws://127.0.0.1:{port}{API_PREFIX}/ws"
+            async with connect(url, compression=None, close_timeout=2) as conn:
+                client = WsClient(conn)
+                assert (await client.subscribe("controller:gantry"))["type"] == "snapshot"
+                text = "".join(f"/COW{n:02d}" for n in range(1, 21)) + "/END"
+                assert (await api.client.put(PROGRAM, json={"text": text})).status_code == 200
+                assert (await api.client.post(f"{PROGRAM}/run")).status_code == 200
+                got: list[dict[str, Any]] = []
+                while not got or got[-1]["data"]["data"] != "W20":
+                    message = await client.recv()
+                    if message["type"] == "event" and message["kind"] == "program_output":
+                        got.append(message)
+        finally:
+            await server.shutdown()
+    assert [m["data"]["data"] for m in got] == [f"W{n:02d}" for n in range(1, 21)]
+    assert {(m["resource"], m["data"]["controller"]) for m in got} == {
+        ("controller:sim.1", "sim.1")
+    }
