@@ -187,7 +187,9 @@ async def jog(
     timeout: Timeout = 30.0,
 ) -> OperationView:
     """Turn at Low (``7``/``8``) or High speed (then ``H``) until a stop or a limit; the
-    same request on a jog already running changes only its speed (``H``/``L``)."""
+    same request on a jog already running changes only its speed (``H``/``L``). Toward a
+    soft limit the jog is a move to the limit at the jog speed (``2`` + ``3``; Low: OH set
+    to OL for it), ended by a stop like any jog; at or past the limit: 422."""
     before = axes.position(id)
     op = await axes.jog(id, body.direction, body.speed, holder=principal.name)
     return await _answer(request, response, axes.operations, op, before, wait, timeout)
