@@ -25,7 +25,7 @@ from pathlib import Path
 from typing import Annotated, Any
 
 from fastapi import APIRouter, Depends, FastAPI, Query, Request
-from pydantic import BaseModel, ConfigDict
+from pydantic import BaseModel, ConfigDict, Field
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from gateway.api.problems import PROBLEM_RESPONSES
@@ -292,8 +292,8 @@ class AuditEntry(BaseModel):
     duration_ms: float | None = None
     bytes_sent: list[str] | None = None
     result: Any = None
-    position_before: Any = None
-    position_after: Any = None
+    position_before: Any = Field(None, description="pulses, before a motion request")
+    position_after: Any = Field(None, description="pulses, when the motion ended")
     operation: Any = None
 
 

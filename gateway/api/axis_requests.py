@@ -19,7 +19,10 @@ class MoveRequest(_Body):
 
     position: float = Field(description="target (or distance when relative), in `unit`")
     relative: bool = Field(False, description="move by `position` from where the axis is")
-    unit: Unit = Field(Unit.PULSE, description="pulse, or the axis's user unit (mm, deg ...)")
+    unit: Unit = Field(
+        description="required, never assumed: `pulse` (controller pulses) or `user` (the "
+        "axis's configured unit: mm, deg ...; see the axis's `unit`)"
+    )
 
 
 class HomeRequest(_Body):

@@ -10,8 +10,10 @@ and path, with a hash of the query and body; a retry with the same key:
   different request), and nothing is done.
 
 Only responses after which the request may have acted are stored: 2xx, 5xx except 503
-(``504``: the device did not answer, the move may have happened). 4xx and 503 mean nothing was
-done (refused, leased, loop down: the outcome is ``not_done``), so a retry may act then. The
+(``504``: the device did not answer, the move may have happened), and any answer that names
+an operation in ``Location`` (a motion that ended ``failed`` is a 409 and may have moved the
+axis). Other 4xx and 503 mean nothing was done (refused, leased, loop down: the outcome is
+``not_done``), so a retry may act then. The
 store is bounded: ``capacity`` keys (oldest dropped first) for ``ttl`` seconds.
 """
 
@@ -55,9 +57,12 @@ class Entry:
     body: bytes = b""
 
 
-def _stored(status: int) -> bool:
+def _stored(status: int, headers: list[tuple[bytes, bytes]]) -> bool:
     """Whether a response may have acted, so a retry must get it rather than act again."""
-    return status < 400 or (status >= 500 and status != 503)
+    if status < 400 or (status >= 500 and status != 503):
+        return True
+    # A problem that names an operation: the motion was sent (motion_problems).
+    return any(name.lower() == b"location" for name, _ in headers)
 
 
 class IdempotencyStore:
@@ -183,7 +188,7 @@ class IdempotencyMiddleware:
                 headers = list(message.get("headers", []))
             elif message["type"] == "http.response.body":
                 chunks.append(bytes(message.get("body", b"")))
-                if not message.get("more_body", False) and _stored(status):
+                if not message.get("more_body", False) and _stored(status, headers):
                     entry.headers, entry.body = headers, b"".join(chunks)
                     entry.status = status
             await send(message)

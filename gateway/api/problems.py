@@ -105,6 +105,9 @@ class Problem(BaseModel):
     required_role: str | None = None
     #: the loops that are down (503 of ``/readyz``)
     loops_down: list[str] | None = None
+    #: the operation (an OperationView) a motion ended failed / unknown is about (409, 504 of
+    #: a motion request with wait=true: gateway.api.motion_problems)
+    operation: dict[str, Any] | None = None
 
 
 def _documented(status: int) -> dict[str, Any]:

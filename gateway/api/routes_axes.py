@@ -3,9 +3,11 @@
 Paths are relative to ``/api/v1``; ``{id}`` is an axis id (``loop.body.motor``) or its name.
 Reads are for viewers; motion, settings and leases for operators. Motion answers ``202`` with
 the operation (``Location: /api/v1/operations/{id}``) once the controller has taken the
-command, or with ``?wait=true`` the operation once ended (``200``; when ``timeout`` passes
-first, ``202`` with the operation as it is then: the motion goes on, nothing failed). A stop
-is never refused, not even by a lease or a motion.
+command, or with ``?wait=true`` the operation once ended: ``200`` only when it is ``done``;
+``failed`` answers 409 and ``unknown`` 504, as problems that carry the operation
+(``gateway.api.motion_problems``); when ``timeout`` passes first, ``202`` with the operation
+as it is then: the motion goes on, nothing failed. A stop is never refused, not even by a
+lease or a motion.
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ from gateway.api.axis_requests import (
     StepRequest,
     StopRequest,
 )
+from gateway.api.motion_problems import MOTION_PROBLEM_RESPONSES, motion_problem
 from gateway.api.problems import PROBLEM_RESPONSES
 from gateway.api.routes_leases import LeaseRequest, LeaseView, lease_routes
 from gateway.api.security import Principal, require
@@ -32,7 +35,7 @@ from gateway.service.axes import (
     StopResult,
 )
 from gateway.service.axis_speeds import SpeedChange, SpeedView
-from gateway.service.operation_types import OperationView
+from gateway.service.operation_types import OperationState, OperationView
 from gateway.service.operations import Operation, Operations
 from gateway.service.roles import Role
 from gateway.service.views import AxisView
@@ -96,17 +99,22 @@ async def _answer(
     wait: bool,
     timeout: float,
 ) -> OperationView:
-    """202 + Location, or with ``wait`` the ended operation (200); a wait that times out is
-    answered 202 with the operation still running: the device did nothing wrong, so no 5xx."""
+    """202 + Location, or with ``wait`` the ended operation: 200 only when it is ``done``;
+    ``failed`` and ``unknown`` are problems carrying the operation (``motion_problem``). A
+    wait that times out is answered 202 with the operation still running: the device did
+    nothing wrong, so no 5xx."""
     try:
         location = str(request.app.url_path_for("get_operation", id=op.id))
     except NoMatchFound:
         location = f"/api/v1/operations/{op.id}"
     audit_note(request, bytes_sent=op.frames, operation=op.id, position_before=before)
+    response.headers["Location"] = location
     if wait:
         op = await operations.wait(op.id, timeout)
         if op.final:
             audit_note(request, position_after=op.position, result=op.state.value)
+            if op.state is not OperationState.DONE:
+                raise motion_problem(op.view(), location)
             response.status_code = 200
         else:
             audit_note(request, result=op.state.value)
@@ -114,7 +122,6 @@ async def _answer(
     else:
         response.status_code = 202
         audit_note(request, result=op.state.value)
-    response.headers["Location"] = location
     return op.view()
 
 
@@ -122,8 +129,9 @@ _MOTION = {
     "status_code": 202,
     "response_model": OperationView,
     "responses": {
-        200: {"model": OperationView, "description": "with wait=true: the motion has ended"},
+        200: {"model": OperationView, "description": "with wait=true: the motion is done"},
         202: {"description": "the command is taken (with wait=true: still running at timeout)"},
+        **MOTION_PROBLEM_RESPONSES,
     },
 }
 
@@ -179,7 +187,9 @@ async def jog(
     timeout: Timeout = 30.0,
 ) -> OperationView:
     """Turn at Low (``7``/``8``) or High speed (then ``H``) until a stop or a limit; the
-    same request on a jog already running changes only its speed (``H``/``L``)."""
+    same request on a jog already running changes only its speed (``H``/``L``). Toward a
+    soft limit the jog is a move to the limit at the jog speed (``2`` + ``3``; Low: OH set
+    to OL for it), ended by a stop like any jog; at or past the limit: 422."""
     before = axes.position(id)
     op = await axes.jog(id, body.direction, body.speed, holder=principal.name)
     return await _answer(request, response, axes.operations, op, before, wait, timeout)

@@ -82,8 +82,12 @@ async def get_controller(
     "its typed reply (decoded value, outcome, frames). Role: " + ROLE_RULE + ". Leases are "
     "checked for everything but queries and stops; a form the manual refuses while a motor "
     "moves or a program runs is 409, one not available in the controller's mode 422. `I` is "
-    "refused (use PUT /controllers/{id}/program). A motion command answers when the "
-    "controller accepted it; follow it with the axis views or use /axes for operations.",
+    "refused (use PUT /controllers/{id}/program). On an axis with soft limits a motion "
+    "command's target is resolved first (3: the 2D data, 4/5: position -/+ the data, "
+    "B{pn}[+-]: the table entry) and checked (422 naming the rule), and the data checked is "
+    "written again in the same transaction; a motion whose target cannot be known (7, 8, "
+    "sequential B) is 422 there. A motion command answers when the controller accepted it; "
+    "follow it with the axis views or use /axes for operations.",
 )
 async def post_command(
     id: Id,

@@ -42,7 +42,8 @@ async def post_raw(
     loop: Loop, body: RawRequest, request: Request, service: Service, who: Admin
 ) -> CommandResponse:
     """Send command text (between body number and CR) to a controller of the loop, parsed
-    through the catalog first; answered like ``/controllers/{id}/commands``."""
+    through the catalog first; answered like ``/controllers/{id}/commands``, with the same
+    soft-limit checks of motion commands (field ``text``)."""
     return note_sent(request, await service.raw(loop, body, holder=who.name))
 
 

@@ -172,6 +172,7 @@ class LoopCore:
         switch = framing_switch(framing, text) if command.key in FRAMING_KEYS else None
         reply_framing = switch.reply if switch is not None else framing
         frame = encode_command(body, text, series=series, framing=framing)
+        self.link.programs.sending(body, command)  # a program may print before G's '>' ends
         exchange = await self.link.exchange(
             body,
             frame,
@@ -195,7 +196,10 @@ class LoopCore:
         motor: int | None,
         late: bool,
     ) -> Sent:
-        if event is not None and (hint := hint_from_reply(event, command, framing)):
+        printing = self.link.programs.printing
+        if event is not None and (
+            hint := hint_from_reply(event, command, framing, printing=printing)
+        ):
             self.framing.suspect(body, hint)
         if event is None:
             return Sent(ReplyKind.TIMEOUT, note="no reply in time")

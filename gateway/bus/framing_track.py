@@ -18,7 +18,13 @@ from gateway.errors import ReplyFormatError
 from gateway.protocol.framing import Framing, Series, checksum
 from gateway.protocol.models import Command
 from gateway.protocol.replies import decode_reply
-from gateway.protocol.reply_parser import ChecksumMismatch, DataReply, Garbled, ReplyEvent
+from gateway.protocol.reply_parser import (
+    ChecksumMismatch,
+    CommandRejected,
+    DataReply,
+    Garbled,
+    ReplyEvent,
+)
 
 __all__ = [
     "FramingTracker",
@@ -86,15 +92,22 @@ def hint_from_stray(event: ReplyEvent, framing: Framing) -> str | None:
     return None
 
 
-def hint_from_reply(event: ReplyEvent, command: Command, framing: Framing) -> str | None:
+def hint_from_reply(
+    event: ReplyEvent, command: Command, framing: Framing, *, printing: bool = False
+) -> str | None:
     """Why the reply to ``command`` suggests the controller uses another framing, or None.
 
     * data that decodes once two trailing hex digits are removed: a checksum (SUM1, §10 SUM)
       that the gateway did not expect;
     * a checksum mismatch on a message that is a valid reply without a checksum: SUM0 while
       SUM1 was assumed. (A bit flipped by noise leaves no valid plain reply.)
+    * '>@' to a general command while ER0 was assumed and a program may print (``printing``:
+      the parser then waits for the byte after '>' and reads ER1's '>@' whole, §10 ER).
     """
     fmt = command.reply_format
+    rejected = isinstance(event, CommandRejected) and not fmt.has_data
+    if rejected and printing and not framing.error_mark:
+        return "'>@' while ER0 was assumed (ER1?)"
     if isinstance(event, DataReply) and not framing.checksum and fmt.has_data:
         data = event.data
         if len(data) > 2 and _HEX2.fullmatch(data[-2:].encode("ascii", "replace")):

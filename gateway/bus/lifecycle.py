@@ -31,6 +31,7 @@ from gateway.bus.events import (
 )
 from gateway.bus.framing_track import hint_from_stray
 from gateway.bus.link import Link, LinkLost
+from gateway.bus.programs_seen import ProgramsSeen
 from gateway.bus.queue import Request, RequestQueue
 from gateway.bus.requests import LoopDown, Priority, TransactionResult
 from gateway.bus.timing import Timing
@@ -78,6 +79,8 @@ class LoopLifecycle:
             host_latency=config.host_latency,
             quiet_chars=config.quiet_chars,
         )
+        self._programs = ProgramsSeen()
+        self.events.subscribe(self._programs.handle)
         self._link = Link(
             transport,
             self.timing,
@@ -87,6 +90,7 @@ class LoopLifecycle:
             on_stray=self._stray,
             on_lost=self._wake_up,
             clock=clock,
+            programs=self._programs,
         )
         self._core = LoopCore(
             self.name, config, self.timing, self._link, self.counters, self.events, clock
@@ -272,6 +276,9 @@ class LoopLifecycle:
         if event.kind is UnsolicitedKind.PROGRAM_OUTPUT and self._framing_artefact(event):
             return
         body = event.body
+        if body is None and event.kind is UnsolicitedKind.PROGRAM_OUTPUT:
+            # '>text' and '@' name no controller: the one whose program may run sent it.
+            body = self._programs.sole()
         self.counters.unsolicited += 1
         if event.kind is UnsolicitedKind.EEPROM_DONE and body is not None:
             self._core.note_eeprom_done(body)

@@ -2,9 +2,9 @@
 
 ``Link.exchange`` is the only way a frame reaches the port. For each frame it: waits for a
 message still arriving to end, takes the bytes nobody read yet off the port (stale input:
-counted, traced, and still searched for ``$B#*``/``$B#T``), registers the expected reply with
-the parser *before* writing, writes, and waits the reply time-out that ``timing`` computes
-from the baud rate and the frame lengths.
+counted, traced, and still searched for ``$B#*``/``$B#T`` and, while a program may print,
+its lines), registers the expected reply with the parser *before* writing, writes, and waits
+the reply time-out that ``timing`` computes from the baud rate and the frame lengths.
 
 After a time-out the expectation is kept while the line is busy and until it has been quiet
 for the longest possible reply time of the command: a reply that completes then is the
@@ -70,7 +70,7 @@ class Link(Receiver):
             raise LinkLost(self.lost_cause)
         await self._settle()
         self._discard_stale(body)
-        self.parser.configure(framing=framing, series=series)
+        self.parser.configure(framing=framing, series=series, printing=self.programs.printing)
         self.parser.expect(
             body, frame if expect_sent is None else expect_sent, has_data, framing=framing
         )
@@ -143,7 +143,9 @@ class Link(Receiver):
         self._trace.add(self._clock(), Direction.DISCARD, body, stale, "stale")
         self.parser.cancel()
         for event in [*self.parser.feed(stale), *self.parser.line_quiet()]:
-            if isinstance(event, Unsolicited) and event.kind in ALWAYS_MEANT:
+            if isinstance(event, Unsolicited) and (
+                event.kind in ALWAYS_MEANT or self._printed(event)
+            ):
                 self._on_unsolicited(event)
         self._idle.set()
 

@@ -4,7 +4,9 @@ A reader task reads the port all the time, so unsolicited messages (``$B#*``, ``
 output, §10 AW/DW/IW/EE///, §10 T, §11-3) are recognised between and around replies; the
 parser (``gateway.protocol.reply_parser``) never lets them satisfy a pending reply. Each event
 goes to the exchange awaiting a reply (when it is that reply), to the scheduler (unsolicited
-messages), or is counted: late (after a time-out), garbled, or stray (framing hints).
+messages), or is counted: late (after a time-out), garbled, or stray (framing hints). A
+program's output goes to the scheduler even while a late reply is awaited (``printed``, while
+a program may print): no printed line is lost for a reply that did not come.
 A message left half-received is ended when the line has been quiet for a few characters.
 """
 
@@ -15,6 +17,7 @@ import contextlib
 from collections.abc import Callable
 
 from gateway.bus.counters import Counters
+from gateway.bus.programs_seen import ProgramsSeen
 from gateway.bus.timing import Timing
 from gateway.bus.trace import Direction, LineTrace
 from gateway.protocol.reply_parser import (
@@ -27,10 +30,19 @@ from gateway.protocol.reply_parser import (
 )
 from gateway.transport.base import Transport, TransportClosed
 
-__all__ = ["ALWAYS_MEANT", "LinkLost", "Pending", "Receiver"]
+__all__ = ["ALWAYS_MEANT", "LinkLost", "Pending", "Receiver", "printed"]
 
 #: '$B#*' / '$B#T' are never a reply, whenever they come (parser notes).
 ALWAYS_MEANT = (UnsolicitedKind.EEPROM_DONE, UnsolicitedKind.TIMER_UP)
+
+
+def printed(event: ReplyEvent) -> bool:
+    """Whether ``event`` is a user program's output that cannot be a late reply: ``/CO``
+    (``>text`` CR), query output without '>' (``$B#data`` CR, §11-3) or '@' (§10 ER). A
+    ``>$B#data`` CR (``/CC``, ``/O3``) is shaped like a query reply and may be one."""
+    if not isinstance(event, Unsolicited) or event.kind is not UnsolicitedKind.PROGRAM_OUTPUT:
+        return False
+    return not (event.raw[:1] == b">" and event.raw[1:2] in (b"$", b"#"))
 
 
 class LinkLost(Exception):
@@ -65,8 +77,11 @@ class Receiver:
         on_stray: Callable[[ReplyEvent, str | None], None],
         on_lost: Callable[[], None],
         clock: Callable[[], float],
+        programs: ProgramsSeen | None = None,
     ) -> None:
         self.transport = transport
+        #: which controllers may have a program printing (the parser's ``printing``)
+        self.programs = programs or ProgramsSeen()
         self.timing = timing
         self._counters = counters
         self._trace = trace
@@ -182,6 +197,10 @@ class Receiver:
             self._route(event)
         self._idle.set()
 
+    def _printed(self, event: ReplyEvent) -> bool:
+        """A program's line, while a program may print: never taken for a late reply."""
+        return self.programs.printing and printed(event)
+
     def _route(self, event: ReplyEvent) -> None:
         pending = self._pending
         if event.is_reply and pending is not None and not pending.future.done():
@@ -191,7 +210,7 @@ class Receiver:
         if isinstance(event, Unsolicited) and event.kind in ALWAYS_MEANT:
             self._on_unsolicited(event)  # '$B#*' / '$B#T' are never a reply (parser notes)
             return
-        if pending is not None and pending.late_phase:
+        if pending is not None and pending.late_phase and not self._printed(event):
             self._counters.late_replies += 1
             self._trace.add(self._clock(), Direction.NOTE, pending.body, event.raw, "late")
             return

@@ -28,8 +28,12 @@ Ambiguous in the manual, decided in ``docs/manual-notes.md`` ("Framing and the r
 * With ER1 and EL0, '>' may be followed by '@'; the parser decides on the next byte or at
   ``line_quiet()``. With EL0 a '>' while a query is pending likewise waits (the device answers a
   query it refused with a bare '>'). EL1 removes both waits.
-* With EL0 a program's '>text' CR cannot be told from a '>' reply followed by text, and a
-  '>$B#...' CR (``/CC``) from the data reply of the pending query: the pending command wins.
+* With EL0 a program's '>text' CR cannot be told from a '>' reply followed by text by the
+  bytes alone. While a user program may print (``configure(printing=True)``: the scheduler
+  knows), '>' followed by a byte that starts no message is a ``/CO`` line and the expectation
+  stays; the '>' of a general command then waits for its next byte too. Otherwise the pending
+  command wins ('>' answers, the rest is ``Garbled``). A '>$B#...' CR (``/CC``) while a query
+  of that controller is pending is its data reply.
 * '$B#*' and '$B#T' are always unsolicited: no query returns the data '*' or 'T' (§10).
   With SUM1 they are accepted with or without a checksum (the manual does not say).
 * With EE1 + EL1 a general reply is accepted as the echo alone or the echo followed by CR.
@@ -168,6 +172,7 @@ class ReplyParser:
         self._state = _State.IDLE
         self._buf = bytearray()
         self._echo: bytes | None = None  # a matched echo whose response part has not come
+        self._printing = False  # a user program may print '>text' CR (configure)
 
     @property
     def framing(self) -> Framing:
@@ -184,12 +189,25 @@ class ReplyParser:
         """The reply still awaited, if any."""
         return self._exp
 
-    def configure(self, framing: Framing | None = None, series: Series | None = None) -> None:
-        """Change the controller's framing or series (after EE/EL/ER/SUM took effect)."""
+    def configure(
+        self,
+        framing: Framing | None = None,
+        series: Series | None = None,
+        *,
+        printing: bool | None = None,
+    ) -> None:
+        """Change the controller's framing or series (after EE/EL/ER/SUM took effect).
+
+        ``printing``: a user program on the line may be printing ``/CO`` lines; with EL0 the
+        '>' of a general command then waits for the next byte (text makes it a ``/CO`` line),
+        which costs a quiet period on every such reply, so it is on only while it may matter.
+        """
         if framing is not None:
             self._framing = framing
         if series is not None:
             self._series = series
+        if printing is not None:
+            self._printing = printing
 
     def expect(
         self, body: str, sent: bytes, has_data: bool, *, framing: Framing | None = None
@@ -305,8 +323,8 @@ class ReplyParser:
             if self._fr.cr_after_ack:
                 self._start(_State.LINE, byte)  # every '>' message ends with CR
             elif self._answers_gt() and exp is not None and not exp.has_data:
-                if self._fr.error_mark:
-                    self._start(_State.GT, byte)  # '@' may follow
+                if self._fr.error_mark or self._printing:
+                    self._start(_State.GT, byte)  # '@' may follow, or /CO text
                 else:
                     self._emit(out, Accepted(raw=b">", is_reply=True))
             else:
@@ -344,7 +362,11 @@ class ReplyParser:
             return True
         exp = self._exp if answers else None
         if exp is not None:
-            continues = byte == _CR or (exp.has_data and byte in _MARKS)
+            # While a program may print, text (a byte that starts no message) after '>' is a
+            # /CO line: the reply is '>' then silence, a start character, CR or the query's
+            # data. Otherwise such text is a damaged reply, and the '>' answers.
+            co_text = self._printing and byte not in _STARTS and byte != _CR
+            continues = byte == _CR or co_text or (exp.has_data and byte in _MARKS)
         else:
             continues = byte not in (_GT, _QUESTION)  # '>text' CR of /CO
         if continues:

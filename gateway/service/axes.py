@@ -13,7 +13,9 @@ move absolute   ``2{pp}`` then ``3`` (position data, then move to it)
 move relative   ``2{|d|}`` then ``4`` (CW, d > 0) or ``5`` (CCW, d < 0)
 home            ``0`` / ``0A`` / ``0H`` / ``0R``; ``0Z`` has no motor form: ``F{mt}`` first
 jog             ``7`` (CW) / ``8`` (CCW) at Low speed, then ``H`` for High speed (§10 H);
-                a jog already running in that direction only gets ``H`` / ``L``
+                a jog already running in that direction only gets ``H`` / ``L``. Toward a
+                soft limit: ``2{limit}`` + ``3`` (High), ``OH{OL}`` + ``2{limit}`` + ``3``
+                then ``OH`` back (Low), ended by a stop like any jog
 step            ``7*`` / ``8*`` (one pulse)
 stop            ``S`` immediate, ``SS`` decelerate to Low speed then stop (§10 S, SS)
 =============== =====================================================================
@@ -48,9 +50,11 @@ from gateway.service.axis_types import (
 )
 from gateway.service.gateway import Gateway
 from gateway.service.leases import Leases
+from gateway.service.limit_jog import LimitJogs
 from gateway.service.operation_types import frames_of
 from gateway.service.operations import Operation, Operations
 from gateway.service.position_format import PositionFormats, check_target, position_data
+from gateway.service.soft_limits import has_soft_limits, jog_limit
 from gateway.service.topology import AxisRef
 from gateway.service.views import AxisView, axis_view
 
@@ -79,6 +83,7 @@ class AxisService:
         self.leases = leases
         self.formats = PositionFormats(gateway)
         self._speeds: dict[str, SpeedSettings] = {}  # last read, per axis id (OC while moving)
+        self._limit_jogs = LimitJogs(self._run, self._submit)
 
     # ------------------------------------------------------------------ reading
 
@@ -160,7 +165,8 @@ class AxisService:
     async def jog(
         self, ident: str, direction: Direction, speed: JogSpeed, *, holder: str
     ) -> Operation:
-        """Turn until stopped (or a limit): ``7``/``8`` at Low speed, ``H`` for High."""
+        """Turn until stopped (or a limit): ``7``/``8`` at Low speed, ``H`` for High. On a
+        side with a soft limit, a move to that limit at the jog speed (``_jog_to_limit``)."""
         ref = self.ref(ident)
         self.leases.check(holder, (ref.id, ref.controller_id))
         active = self.operations.active(ref.loop, ref.body)
@@ -170,15 +176,29 @@ class AxisService:
             and active.axis.id == ref.id
             and active.request.get("direction") == direction.value
         ):
+            if active.target is not None:  # a move to the soft limit: its speed is fixed
+                if active.request.get("speed") == speed.value:
+                    return active
+                raise ConflictError(
+                    f"the jog of {ref.id} runs as a move to its soft limit; its speed cannot "
+                    "change while it runs (H, L act on 7/8 only, §10 H, L): stop it first",
+                    field="body.speed",
+                )
             # The same jog: only its speed changes (§10 H, L work while turning).
             await self._submit(ref, [parse("H" if speed is JogSpeed.HIGH else "L")], motor=None)
             active.request["speed"] = speed.value
             return active
         self._may_act(ref, holder)
+        request = {"direction": direction.value, "speed": speed.value}
+        if has_soft_limits(ref):
+            fmt = await self.formats.get(ref.loop, ref.body)
+            limit = jog_limit(ref, direction is Direction.CW, fmt)
+            if limit is not None:
+                current = await self._current(ref)
+                return await self._limit_jogs.start(ref, request, current, limit, fmt, holder)
         commands = [parse(_JOG[direction])]
         if speed is JogSpeed.HIGH:
             commands.append(parse("H"))
-        request = {"direction": direction.value, "speed": speed.value}
         return await self._run(ref, "jog", request, commands, holder=holder)
 
     async def step(self, ident: str, direction: Direction, *, holder: str) -> Operation:
@@ -212,7 +232,18 @@ class AxisService:
     async def speed(self, ident: str) -> SpeedView:
         """Read OH, OL, OS, OC and OX; OC only while stopped (§10 OC), else the last read."""
         ref = self.ref(ident)
-        moving = self.gateway.state.controller(ref.loop, ref.body).moving
+        ctl = self.gateway.state.controller(ref.loop, ref.body)
+        moving = ctl.moving
+        if moving and ctl.selected_motor != ref.motor:
+            # OH, OL, OS, OC are per motor: reading motor m's needs F{m}, and F is refused
+            # while a motor moves (§10 F). The moving motor is the selected one.
+            other = "another motor" if ctl.selected_motor is None else f"motor {ctl.selected_motor}"
+            raise ConflictError(
+                f"the speed data of {ref.id} cannot be read while {other} of controller "
+                f"{ref.controller_id} moves: motor {ref.motor} cannot be selected then "
+                "(§10 F); read it when the motion has ended",
+                field="axis",
+            )
         names = QUERIES_WHILE_MOVING if moving else QUERIES
         known = self._speeds.get(ref.id)
         if moving and known is None:

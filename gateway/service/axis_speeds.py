@@ -20,8 +20,8 @@ from collections.abc import Sequence
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from gateway.bus.requests import TransactionResult
-from gateway.errors import DeviceError, InvalidInputError
+from gateway.bus.requests import ReplyKind, TransactionResult
+from gateway.errors import ConflictError, DeviceError, InvalidInputError
 from gateway.protocol.models import Command
 from gateway.protocol.registry import parse
 from gateway.protocol.speeds import (
@@ -117,6 +117,14 @@ def settings_from(
     values: dict[str, int] = {}
     replies = result.results[-len(names) :]
     for name, reply in zip(names, replies, strict=True):
+        if reply.kind is ReplyKind.SKIPPED:
+            # Not sent: the motor could not be selected, a motor moves (§10 F). A conflict
+            # with the motion, not a device fault (the cache saw the motion start late).
+            raise ConflictError(
+                f"{name} was not read ({reply.note or 'skipped'}): a motor of the controller "
+                "moves and the motor cannot be selected then (§10 F)",
+                field="axis",
+            )
         if not isinstance(reply.value, int) or isinstance(reply.value, bool):
             raise DeviceError(
                 f"{name} was not read ({reply.kind.value})",

@@ -31,6 +31,7 @@ from gateway.protocol.reply_values import ProgramState
 from gateway.protocol.spec import Effect
 from gateway.service.gateway import Gateway
 from gateway.service.roles import Role
+from gateway.service.soft_limits import SoftLimits
 from gateway.service.topology import ControllerRef
 
 __all__ = [
@@ -99,6 +100,7 @@ class CommandRunner:
     def __init__(self, gateway: Gateway, leases: LeaseCheck) -> None:
         self.gateway = gateway
         self.leases = leases
+        self.limits = SoftLimits(gateway)
 
     # ------------------------------------------------------------------ checks
 
@@ -149,19 +151,23 @@ class CommandRunner:
         *,
         holder: str,
         motor: int | None = None,
+        field: str = "command",
     ) -> TransactionResult:
-        """Check ``commands`` (leases, the manual's refusals) and send them as one transaction.
+        """Check ``commands`` (leases, the manual's refusals, the soft limits of the axis a
+        motion command moves) and send them as one transaction.
 
-        A query-only transaction needs no lease. Raises ``ConflictError``,
-        ``InvalidInputError`` and the scheduler's ``LoopDown`` / ``DeadlineExpired`` /
-        ``TransactionError``.
+        A query-only transaction needs no lease. A motion command on an axis with soft limits
+        is sent with what fixes its target (``SoftLimits.guard``). Raises ``ConflictError``,
+        ``InvalidInputError`` (``field``: the request's field holding the command) and the
+        scheduler's ``LoopDown`` / ``DeadlineExpired`` / ``TransactionError``.
         """
         cmds = [commands] if isinstance(commands, Command) else list(commands)
         for command in cmds:
             self.refuse_unsendable(command)
         self.check_lease(ref, cmds, holder)
         self.check_state(ref, cmds)
-        result = await self.send(ref, cmds, motor=motor)
+        guarded = await self.limits.guard(ref, cmds, motor, field)
+        result = await self.send(ref, guarded.commands, motor=guarded.motor)
         if any(c.key in ("E{mode}", "DL") for c in cmds):
             # The cache learns the mode from reads only (the poller reads it once, at first
             # contact): read it back after E or a DL (which loads E from the EEPROM, §10 DL)

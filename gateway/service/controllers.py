@@ -169,7 +169,9 @@ class ControllerService:
         """Parse ``request.text`` through the catalog and send it to the controller named."""
         ref = self.on_loop(loop, request.controller)
         command = self.parse_raw(request)
-        result = await self.runner.run(ref, command, holder=holder, motor=request.motor)
+        result = await self.runner.run(
+            ref, command, holder=holder, motor=request.motor, field="text"
+        )
         return response_of(ref, result)
 
     # ------------------------------------------------------------------ trace

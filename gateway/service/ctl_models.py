@@ -63,6 +63,7 @@ class PositionEntry(BaseModel):
     controller: str
     number: int = Field(ge=0, le=999)
     position: int = Field(description="pulses, as the controller reports them (§10 EP)")
+    unit: Literal["pulse"] = Field("pulse", description="the unit of `position`")
 
 
 class PositionWrite(_Request):

@@ -106,10 +106,17 @@ class OperationView(BaseModel):
     )
     state: OperationState
     target: int | None = Field(description="the target position in pulses, when there is one")
-    target_user: float | None
+    target_user: float | None = Field(description="the target in `unit`")
     position: int | None = Field(description="the final position in pulses, once ended")
-    position_user: float | None
-    unit: str
+    position_user: float | None = Field(description="the final position in `unit`")
+    unit: str = Field(description="the axis's user unit (`pulse` when it has none)")
+    units: dict[str, str] = Field(
+        description="the unit of every position field: target and position in pulse, "
+        "target_user and position_user in `unit`",
+        examples=[
+            {"target": "pulse", "target_user": "mm", "position": "pulse", "position_user": "mm"}
+        ],
+    )
     error: OperationError | None
     frames: list[str] = Field(description="the command frames sent (without the CR)")
     holder: str | None = Field(description="who asked (the token's name)")
@@ -167,6 +174,12 @@ class Operation:
             position=self.position,
             position_user=self.axis.to_user(self.position),
             unit=self.axis.unit,
+            units={
+                "target": "pulse",
+                "target_user": self.axis.unit,
+                "position": "pulse",
+                "position_user": self.axis.unit,
+            },
             error=self.error,
             frames=list(self.frames),
             holder=self.holder,

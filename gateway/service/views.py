@@ -24,6 +24,7 @@ __all__ = [
     "LatchView",
     "LoopView",
     "Sensors",
+    "axis_units",
     "axis_view",
     "controller_view",
     "loop_view",
@@ -67,13 +68,18 @@ class AxisView(BaseModel):
     motor: Literal[1, 2]
     position: int | None = Field(description="pulses, as the controller counts them")
     position_user: float | None = Field(description="position in `unit`")
-    unit: str
+    unit: str = Field(description="the axis's user unit (mm, deg ...; `pulse` when it has none)")
+    units: dict[str, str] = Field(
+        description="the unit of every position field of this view: position in pulse, "
+        "position_user, soft_min and soft_max in `unit`",
+        examples=[{"position": "pulse", "position_user": "mm", "soft_min": "mm", "soft_max": "mm"}],
+    )
     moving: bool
     selected: bool = Field(description="F selects this motor (§10 F)")
     sensors: Sensors | None
     errors: AxisErrors
-    soft_min: float | None
-    soft_max: float | None
+    soft_min: float | None = Field(description="soft limit in `unit` (configuration)")
+    soft_max: float | None = Field(description="soft limit in `unit` (configuration)")
     stale: bool = Field(description="no fresh reading for a while (the controller may be off)")
     updated: float | None = Field(description="seconds since the epoch of the last reading")
 
@@ -125,6 +131,16 @@ class LoopView(BaseModel):
     )
 
 
+def axis_units(ref: AxisRef) -> dict[str, str]:
+    """Which unit each position field of an axis's view is in (pulses or the user unit)."""
+    return {
+        "position": "pulse",
+        "position_user": ref.unit,
+        "soft_min": ref.unit,
+        "soft_max": ref.unit,
+    }
+
+
 def axis_view(ref: AxisRef, state: AxisState) -> AxisView:
     """The view of one axis."""
     sensors = state.sensors
@@ -137,6 +153,7 @@ def axis_view(ref: AxisRef, state: AxisState) -> AxisView:
         position=state.position,
         position_user=ref.to_user(state.position),
         unit=ref.unit,
+        units=axis_units(ref),
         moving=state.moving,
         selected=state.selected,
         sensors=None

@@ -39,16 +39,20 @@ async def test_move_in_user_units_ends_where_the_simulator_is() -> None:
 
 async def test_relative_move_uses_4_or_5_with_the_distance() -> None:
     async with running_app() as api:
-        await api.client.post("/axes/sim.1.1/move?wait=true", json={"position": 1000})
+        await api.client.post(
+            "/axes/sim.1.1/move?wait=true", json={"position": 1000, "unit": "pulse"}
+        )
         mark = api.mark()
         r = await api.client.post(
-            "/axes/x/move?wait=true", json={"position": -250, "relative": True}
+            "/axes/x/move?wait=true", json={"position": -250, "relative": True, "unit": "pulse"}
         )
         assert json_of(r)["position"] == 750
         assert api.position("1", 1) == 750
         assert motion(api.heard("1", mark)) == ["2250", "5"]  # CCW by 250 (§10 5)
         mark = api.mark()
-        r = await api.client.post("/axes/x/move?wait=true", json={"position": 3, "relative": True})
+        r = await api.client.post(
+            "/axes/x/move?wait=true", json={"position": 3, "relative": True, "unit": "pulse"}
+        )
         assert json_of(r)["position"] == 753
         assert motion(api.heard("1", mark)) == ["23", "4"]  # CW by 3 (§10 4)
 
@@ -66,13 +70,15 @@ async def test_soft_limit_refused_with_field_and_rule_and_nothing_sent() -> None
         r = await api.client.post("/axes/x/move", json={"position": 1.005, "unit": "user"})
         assert r.status_code == 422 and "whole number of pulses" in json_of(r)["rule"]
         # relative: computed from where the axis is (0), 94,001 pulses is past 940 mm
-        r = await api.client.post("/axes/x/move", json={"position": 94_001, "relative": True})
+        r = await api.client.post(
+            "/axes/x/move", json={"position": 94_001, "relative": True, "unit": "pulse"}
+        )
         assert r.status_code == 422 and json_of(r)["field"] == "body.position"
         # negative in unsigned management (EP0, the power-on default): §10 EP, §7-4
-        r = await api.client.post("/axes/x/move", json={"position": -10})
+        r = await api.client.post("/axes/x/move", json={"position": -10, "unit": "pulse"})
         assert r.status_code == 422 and "EP1" in json_of(r)["rule"]
         # a pulse position must be whole
-        r = await api.client.post("/axes/x/move", json={"position": 10.5})
+        r = await api.client.post("/axes/x/move", json={"position": 10.5, "unit": "pulse"})
         assert r.status_code == 422
         assert motion(api.heard("1", mark)) == []
         assert api.position("1", 1) == 0
@@ -80,7 +86,7 @@ async def test_soft_limit_refused_with_field_and_rule_and_nothing_sent() -> None
 
 async def test_signed_management_writes_the_sign() -> None:
     async with running_app() as api:
-        r = await api.client.post("/axes/x/move?wait=true", json={"position": 100})
+        r = await api.client.post("/axes/x/move?wait=true", json={"position": 100, "unit": "pulse"})
         assert json_of(r)["state"] == "done"
         # EP1 set behind the gateway's back (another client): the reply teaches the format.
         sched = api.gateway.scheduler("sim")
@@ -88,16 +94,16 @@ async def test_signed_management_writes_the_sign() -> None:
 
         await sched.submit("1", parse("EP1"))
         mark = api.mark()
-        r = await api.client.post("/axes/x/move?wait=true", json={"position": -30})
+        r = await api.client.post("/axes/x/move?wait=true", json={"position": -30, "unit": "pulse"})
         assert json_of(r)["position"] == -30
         assert motion(api.heard("1", mark)) == ["2-30", "3"]
 
 
 async def test_unknown_axis_and_bad_body() -> None:
     async with running_app() as api:
-        r = await api.client.post("/axes/nope/move", json={"position": 1})
+        r = await api.client.post("/axes/nope/move", json={"position": 1, "unit": "pulse"})
         assert r.status_code == 404
-        r = await api.client.post("/axes/x/move", json={"position": 1, "speed": 3})
+        r = await api.client.post("/axes/x/move", json={"position": 1, "speed": 3, "unit": "pulse"})
         assert r.status_code == 422 and json_of(r)["field"] == "body.speed"
         r = await api.client.post("/axes/x/home", json={"method": "0X"})
         assert r.status_code == 422 and json_of(r)["field"] == "body.method"
@@ -105,7 +111,7 @@ async def test_unknown_axis_and_bad_body() -> None:
 
 async def test_home_from_the_cw_side_ends_at_zero() -> None:
     async with running_app() as api:
-        await api.client.post("/axes/x/move?wait=true", json={"position": 2000})
+        await api.client.post("/axes/x/move?wait=true", json={"position": 2000, "unit": "pulse"})
         mark = api.mark()
         r = await api.client.post("/axes/x/home?wait=true&timeout=30", json={"method": "0"})
         op = json_of(r)
@@ -129,15 +135,16 @@ async def test_home_0z_selects_the_motor_first() -> None:
 async def test_jog_then_stop() -> None:
     async with running_app() as api:
         mark = api.mark()
-        # Low speed (OL 500 pps): 65,000 pulses to the CW limit last 130 s of device time, so
-        # the jog is still running when the checks below run, however loaded the host.
+        # Low speed (OL 500 pps): x has soft limits, so the jog is a move to the soft maximum
+        # (94,000) at OL; the scene's CW limit sensor (65,000) lies 130 s of device time away,
+        # so the jog is still running when the checks below run, however loaded the host.
         r = await api.client.post("/axes/x/jog", json={"direction": "cw", "speed": "low"})
         assert r.status_code == 202
         op = json_of(r)
         assert r.headers["location"].endswith(f"/operations/{op['id']}")
         await api.until(lambda: api.operations.get(op["id"]).state.value == "moving")
         # the other motor of the controller may not move meanwhile (§2)
-        r = await api.client.post("/axes/y/move", json={"position": 10})
+        r = await api.client.post("/axes/y/move", json={"position": 10, "unit": "pulse"})
         assert r.status_code == 409 and json_of(r)["field"] == "axis"
         r = await api.client.post("/axes/x/stop", json={"mode": "decelerate"})
         stopped = json_of(r)
@@ -146,21 +153,25 @@ async def test_jog_then_stop() -> None:
         ended = json_of(await api.client.get(f"/operations/{op['id']}"))
         assert ended["state"] == "done"  # a jog ends with its stop
         assert ended["position"] == api.position("1", 1) > 0
-        assert motion(api.heard("1", mark)) == ["7"]  # 7 starts at Low speed (§10 7)
+        # OH lowered to OL for the move to the soft limit, then given back (limit_jog.py)
+        assert motion(api.heard("1", mark))[:2] == ["294000", "3"]
+        assert "OH500" in api.heard("1", mark) and "7" not in api.heard("1", mark)
         assert "SS" in api.heard("1", mark)
+        await api.until(lambda: "OH5000" in api.heard("1", mark))
         assert "21" not in api.heard("1", mark)  # y's move never went out
 
 
 async def test_jog_to_the_limit_fails_and_errors_can_be_acknowledged() -> None:
     async with running_app() as api:
+        # x jogs toward its soft maximum (94,000); the scene's CW limit sensor (65,000) comes
+        # first and stops it with a limit error: with wait=true a 409 carrying the operation.
         r = await api.client.post(
-            "/axes/x/jog?wait=true&timeout=30", json={"direction": "ccw", "speed": "high"}
+            "/axes/x/jog?wait=true&timeout=30", json={"direction": "cw", "speed": "high"}
         )
-        op = json_of(r)
+        assert r.status_code == 409, r.text
+        op = r.json()["operation"]
         assert (op["state"], op["error"]["kind"]) == ("failed", "limit_error")
-        # EP0 shows the 24-bit counter unsigned (§10 EP): past 0 CCW it reads 2**24 - n.
-        assert op["position"] == api.position("1", 1)
-        assert op["position"] - 2**24 <= -5000  # at or past the scene's CCW limit sensor
+        assert op["position"] == api.position("1", 1) >= 65_000
         view = json_of(await api.client.get("/axes/x"))
         assert view["errors"]["limit"] is True
         r = await api.client.post("/axes/x/errors/ack", json={"kinds": ["limit_error"]})

@@ -149,7 +149,9 @@ async def test_a_form_of_another_mode_is_refused_before_the_wire(api: Api) -> No
 
 
 async def test_settings_refused_while_moving_and_stop_always_goes(api: Api) -> None:
-    r = await send(api, {"command": "7{mt}", "mt": 1})  # CW jog at Low speed
+    # A move of 60,000 pulses (12 s at OH): 7/8 are refused on axes with soft limits
+    assert (await send(api, {"command": "2{pp}", "pp": 60_000})).status_code == 200
+    r = await send(api, {"command": "3{mt}", "mt": 1})
     assert r.status_code == 200, r.text
     await api.until(lambda: api.cached().moving)
     mark = api.mark()

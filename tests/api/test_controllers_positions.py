@@ -27,7 +27,7 @@ async def test_write_then_read_an_entry(api: Api) -> None:
     assert "A0051000" in api.heard(since=mark)
     assert api.device().table[5] == 1000
     r = await api.client.get(f"{URL}/5")
-    assert r.json() == {"controller": "sim.1", "number": 5, "position": 1000}
+    assert r.json() == {"controller": "sim.1", "number": 5, "position": 1000, "unit": "pulse"}
     assert "A005D" in api.heard(since=mark)
     assert (await api.client.get(f"{URL}/999")).json()["position"] == 0  # §16: all 0
 

@@ -44,8 +44,11 @@ async def test_mode_read_and_set(api: Api) -> None:
 
 
 async def test_mode_and_sensor_logic_refused_while_moving(api: Api) -> None:
-    r = await api.client.post(f"{CTL}/commands", json={"command": "8{mt}", "mt": 2})
+    # A move of 60,000 pulses (12 s at OH): 7/8 are refused on axes with soft limits
+    r = await api.client.post(f"{CTL}/commands", json={"command": "2{pp}", "pp": 60_000})
     assert r.status_code == 200
+    r = await api.client.post(f"{CTL}/commands", json={"command": "3{mt}", "mt": 2})
+    assert r.status_code == 200, r.text
     await api.until(lambda: api.cached().moving)
     mark = api.mark()
     r = await api.client.put(f"{CTL}/mode", json={"mode": 1})

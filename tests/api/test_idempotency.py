@@ -18,10 +18,14 @@ async def test_a_retried_move_moves_the_axis_once() -> None:
     async with running_app() as api:
         key = {"Idempotency-Key": "move-x-1"}
         mark = api.mark()
-        first = await api.client.post("/axes/x/move", json={"position": 1500}, headers=key)
+        first = await api.client.post(
+            "/axes/x/move", json={"position": 1500, "unit": "pulse"}, headers=key
+        )
         assert first.status_code == 202 and "idempotent-replayed" not in first.headers
         await api.operations.wait(json_of(first)["id"], 20)
-        retry = await api.client.post("/axes/x/move", json={"position": 1500}, headers=key)
+        retry = await api.client.post(
+            "/axes/x/move", json={"position": 1500, "unit": "pulse"}, headers=key
+        )
         assert retry.status_code == 202
         assert retry.headers["idempotent-replayed"] == "true"
         assert retry.content == first.content  # the first operation, as first answered
@@ -33,7 +37,7 @@ async def test_a_retried_move_moves_the_axis_once() -> None:
 async def test_a_retry_while_the_first_runs_waits_for_it() -> None:
     async with running_app() as api:
         key = {"Idempotency-Key": "home-z"}
-        await api.client.post("/axes/z/move?wait=true", json={"position": 1000})
+        await api.client.post("/axes/z/move?wait=true", json={"position": 1000, "unit": "pulse"})
         mark = api.mark()
         one, two = await asyncio.gather(
             api.client.post("/axes/z/home?wait=true", json={"method": "0"}, headers=key),

@@ -72,7 +72,9 @@ async def test_lease_refuses_other_clients_but_never_a_stop() -> None:
         r = await client.post("/axes/x/lease", json={"ttl": 60}, headers=auth("alice"))
         assert r.status_code == 200 and json_of(r)["holder"] == "alice"
         mark = api.mark()
-        r = await client.post("/axes/x/move", json={"position": 100}, headers=auth("bob"))
+        r = await client.post(
+            "/axes/x/move", json={"position": 100, "unit": "pulse"}, headers=auth("bob")
+        )
         assert r.status_code == 409
         problem = json_of(r)
         assert problem["holder"] == "alice" and "alice" in problem["detail"]
@@ -88,7 +90,7 @@ async def test_lease_refuses_other_clients_but_never_a_stop() -> None:
         assert "SS" in api.heard("1", mark)
         # the holder moves
         r = await client.post(
-            "/axes/x/move?wait=true", json={"position": 100}, headers=auth("alice")
+            "/axes/x/move?wait=true", json={"position": 100, "unit": "pulse"}, headers=auth("alice")
         )
         assert json_of(r)["position"] == 100
         # reading the lease is for viewers too; taking it is not
@@ -101,7 +103,9 @@ async def test_lease_refuses_other_clients_but_never_a_stop() -> None:
         assert r.status_code == 409
         r = await client.delete("/axes/x/lease", headers=auth("admin"))
         assert r.status_code == 200 and json_of(r)["holder"] is None
-        r = await client.post("/axes/x/move?wait=true", json={"position": 5}, headers=auth("bob"))
+        r = await client.post(
+            "/axes/x/move?wait=true", json={"position": 5, "unit": "pulse"}, headers=auth("bob")
+        )
         assert json_of(r)["position"] == 5
 
 

@@ -8,7 +8,7 @@ from tests.api.sim_app import json_of, running_app
 
 async def test_202_then_the_operation_reaches_done_with_the_final_position() -> None:
     async with running_app() as api:
-        r = await api.client.post("/axes/z/move", json={"position": 60_000})
+        r = await api.client.post("/axes/z/move", json={"position": 60_000, "unit": "pulse"})
         assert r.status_code == 202
         op = json_of(r)
         assert op["state"] in ("sent", "moving")
@@ -63,11 +63,13 @@ async def test_list_and_unknown() -> None:
 
 async def test_a_limit_makes_it_failed() -> None:
     async with running_app() as api:
-        # x starts at 0; jog CCW runs into the scene's CCW limit sensor
+        # x jogs CW toward its soft maximum (94,000) and runs into the scene's CW limit
+        # sensor (65,000 pulses from the power-on position) first
         r = await api.client.post(
-            "/axes/x/jog?wait=true", json={"direction": "ccw", "speed": "high"}
+            "/axes/x/jog?wait=true", json={"direction": "cw", "speed": "high"}
         )
-        op = json_of(r)
+        assert r.status_code == 409, r.text
+        op = r.json()["operation"]
         assert op["state"] == "failed"
         assert op["error"]["kind"] == "limit_error" and "§10" in op["error"]["detail"]
 
@@ -75,7 +77,7 @@ async def test_a_limit_makes_it_failed() -> None:
 async def test_a_stopped_move_is_failed_with_where_it_stopped() -> None:
     # Time scale 5: the 18 s move lasts 3.6 s here, so the stop lands in it on a loaded host.
     async with running_app(scale=5.0) as api:
-        r = await api.client.post("/axes/x/move", json={"position": 90_000})
+        r = await api.client.post("/axes/x/move", json={"position": 90_000, "unit": "pulse"})
         op = json_of(r)
         await api.until(lambda: api.operations.get(op["id"]).state.value == "moving")
         stop = json_of(await api.client.post("/axes/x/stop", json={"mode": "immediate"}))

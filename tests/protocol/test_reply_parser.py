@@ -674,11 +674,39 @@ def test_every_framing_unsolicited(framing: Framing, case: str) -> None:
     parser = ReplyParser(framing)
     parser.expect("1", encode_command("1", "", framing=framing), True)
     if case == "co" and not framing.cr_after_ack and not framing.echo:
-        # documented ambiguity: with EL0 '>' then text is the pending query's bare '>'
+        # With EL0 and no program known to run, '>' then text is the pending query's bare '>'
+        # and a damaged rest; while a program may print, it is a /CO line (docs/manual-notes.md
+        # "/CO output: with or without '>'").
         assert run(parser, wire) == [Accepted(raw=b">", is_reply=True), Garbled(raw=wire[1:])]
-        return
+        parser = ReplyParser(framing)
+        parser.configure(printing=True)
+        parser.expect("1", encode_command("1", "", framing=framing), True)
     assert run(parser, wire) == [expected]
     assert parser.pending is not None
+
+
+@pytest.mark.parametrize("framing", [f for f in ALL_FRAMINGS if not f.echo], ids=repr)
+def test_a_co_line_before_a_general_reply_is_output_when_a_program_may_print(
+    framing: Framing,
+) -> None:
+    # A program's output ready before the frame was heard comes before its reply
+    # (docs/manual-notes.md "A program's output and a reply in progress").
+    wire, expected = unsolicited_case(framing, "co")
+    sent = encode_command("1", "GS", framing=framing)
+    reply = encode_ack(framing, sent=sent)
+    parser = ReplyParser(framing)
+    parser.configure(printing=True)
+    parser.expect("1", sent, False)
+    assert run(parser, wire + reply, quiet=True) == [expected, Accepted(raw=reply, is_reply=True)]
+    # and after the reply: '>' then the line
+    parser.expect("1", sent, False)
+    assert run(parser, reply + wire, quiet=True) == [Accepted(raw=reply, is_reply=True), expected]
+
+
+def test_a_general_reply_does_not_wait_when_no_program_may_print() -> None:
+    parser = ReplyParser(Framing())
+    parser.expect("1", b"$1GS\r", False)
+    assert parser.feed(b">") == [Accepted(raw=b">", is_reply=True)]
 
 
 @pytest.mark.parametrize("framing", [f for f in ALL_FRAMINGS if f.checksum], ids=repr)
