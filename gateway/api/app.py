@@ -28,6 +28,7 @@ from gateway.service.feed import Feed
 from gateway.service.gateway import Gateway
 from gateway.service.leases import Leases
 from gateway.service.operations import Operations
+from gateway.service.stops import StopAll
 
 __all__ = ["API_PREFIX", "create_app"]
 
@@ -82,6 +83,7 @@ def create_app(gateway: Gateway, *, auth: AuthConfig) -> FastAPI:
     app.state.operations = operations
     app.state.axes = AxisService(gateway, operations, leases)
     app.state.controllers = ControllerService(gateway, leases, operations)
+    app.state.stops = StopAll(gateway, operations)
     for module in (routes_axes, routes_operations, routes_controllers, routes_loops, ws):
         app.include_router(module.router, prefix=API_PREFIX)
     ws.install_ws(app, feed)
