@@ -16,8 +16,16 @@ from contextlib import asynccontextmanager
 from fastapi import FastAPI
 from fastapi.middleware.cors import CORSMiddleware
 
-from gateway.api import routes_axes, routes_controllers, routes_loops, routes_operations, ws
+from gateway.api import (
+    routes_axes,
+    routes_controllers,
+    routes_loops,
+    routes_operations,
+    routes_session,
+    ws,
+)
 from gateway.api.audit import AuditLog, install_audit
+from gateway.api.dashboard import install_dashboard
 from gateway.api.health import install_operations
 from gateway.api.idempotency import install_idempotency
 from gateway.api.problems import install_problem_handlers
@@ -75,7 +83,8 @@ def create_app(gateway: Gateway, *, auth: AuthConfig) -> FastAPI:
         description=DESCRIPTION,
         lifespan=lifespan,
         openapi_url=f"{API_PREFIX}/openapi.json",
-        docs_url=f"{API_PREFIX}/docs",
+        # Swagger UI from vendored files (install_dashboard): the docs work with no internet.
+        docs_url=None,
         redoc_url=None,
     )
     app.state.gateway = gateway
@@ -84,9 +93,11 @@ def create_app(gateway: Gateway, *, auth: AuthConfig) -> FastAPI:
     app.state.axes = AxisService(gateway, operations, leases)
     app.state.controllers = ControllerService(gateway, leases, operations)
     app.state.stops = StopAll(gateway, operations)
-    for module in (routes_axes, routes_operations, routes_controllers, routes_loops, ws):
+    modules = (routes_axes, routes_operations, routes_controllers, routes_loops, routes_session, ws)
+    for module in modules:
         app.include_router(module.router, prefix=API_PREFIX)
     ws.install_ws(app, feed)
+    install_dashboard(app, API_PREFIX)
     # Middleware added later wraps what was added before: the problem handlers innermost,
     # then security, idempotency, audit, metrics, and CORS outermost so that error
     # responses carry the CORS headers too.
