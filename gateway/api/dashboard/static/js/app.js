@@ -170,5 +170,7 @@ addEventListener("keydown", onKey);
 installHoldGuards(onClose);
 // Ages ("3 s ago") and the plots' time windows move on even when nothing changes.
 setInterval(notify, 1000);
-render(html`<${App} />`, document.getElementById("app"));
+const root = document.getElementById("app");
+root.textContent = ""; // the "Loading" line of index.html
+render(html`<${App} />`, root);
 start();

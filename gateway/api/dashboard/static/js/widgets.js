@@ -42,7 +42,11 @@ export function StateBadges({ axis }) {
   const current = isCurrent(axis);
   const op = store.ops.get(axis.id);
   return html`<span class="badges">
-    ${axis.moving ? html`<${Badge} kind="moving">MOVING<//>` : html`<${Badge} kind="idle">STOPPED<//>`}
+    ${!current
+      ? null
+      : axis.moving
+        ? html`<${Badge} kind="moving">MOVING<//>`
+        : html`<${Badge} kind="idle">STOPPED<//>`}
     ${axis.stale ? html`<${Badge} kind="stale" title="no fresh reading: the value is old">STALE<//>` : null}
     ${!current && !axis.stale ? html`<${Badge} kind="stale">NOT CURRENT<//>` : null}
     <span class="age" title="time of the last reading">${age(axis.updated)}</span>
