@@ -26,7 +26,8 @@ function lines(u, values, color, dash) {
   ctx.restore();
 }
 
-export function PositionPlot({ axisId, height = 120, window = HISTORY_SECONDS }) {
+// `every`: the shortest time between two redraws (ms); a plot out of view is not redrawn.
+export function PositionPlot({ axisId, height = 120, window = HISTORY_SECONDS, every = 50 }) {
   const box = useRef(null);
   useEffect(() => {
     const el = box.current;
@@ -85,7 +86,16 @@ export function PositionPlot({ axisId, height = 120, window = HISTORY_SECONDS })
     const plot = new uPlot(opts, [[], []], el);
     let lastLen = -1;
     let lastT = 0;
+    let drawn = 0;
+    let visible = true;
+    const seen = new IntersectionObserver((entries) => {
+      visible = entries[entries.length - 1].isIntersecting;
+    });
+    seen.observe(el);
     const redraw = () => {
+      const at = performance.now();
+      if (!visible || at - drawn < every) return;
+      drawn = at;
       const h = store.history.get(axisId);
       if (!h || h.t.length === 0) return;
       const end = h.t[h.t.length - 1];
@@ -113,8 +123,9 @@ export function PositionPlot({ axisId, height = 120, window = HISTORY_SECONDS })
     return () => {
       unsubscribe();
       resize.disconnect();
+      seen.disconnect();
       plot.destroy();
     };
-  }, [axisId, height, window]);
+  }, [axisId, height, window, every]);
   return html`<div class="plot" ref=${box} aria-label="position plot"></div>`;
 }

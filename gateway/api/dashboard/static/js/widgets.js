@@ -5,9 +5,18 @@ import { html } from "../vendor/preact-htm/standalone.module.js";
 import { acknowledge, holdEnd, holdStart, stopAxis } from "./actions.js";
 import { can, isCurrent, store } from "./store.js";
 
+// One formatter per digit count, made once: toLocaleString builds one per call (slow at 600
+// readings a second).
+const FORMATS = new Map();
+
 export function fmt(value, digits = 3) {
   if (value == null || !isFinite(value)) return "—";
-  return Number(value).toLocaleString("en-US", { minimumFractionDigits: digits, maximumFractionDigits: digits });
+  let format = FORMATS.get(digits);
+  if (!format) {
+    format = new Intl.NumberFormat("en-US", { minimumFractionDigits: digits, maximumFractionDigits: digits });
+    FORMATS.set(digits, format);
+  }
+  return format.format(value);
 }
 
 // Digits for a user unit: pulses are whole, mm and degrees to the thousandth.
@@ -34,7 +43,7 @@ export function Position({ axis, big = true }) {
     <span class="unit">${axis.unit}</span>
   </div>
   <div class="pulses">
-    <span data-testid="pulses">${axis.position == null ? "—" : axis.position.toLocaleString("en-US")}</span> pulses
+    <span data-testid="pulses">${fmt(axis.position, 0)}</span> pulses
   </div>`;
 }
 
