@@ -7,7 +7,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-$(shell $(PYTHON) -c "import hashlib,sys;print(hashlib.sha1(open('pyproject.toml','rb').read()).hexdigest()[:12])")
 
-.PHONY: run test lint typecheck layers unit contract bench clean
+.PHONY: run test lint typecheck layers unit contract bench clean chromium
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -17,6 +17,7 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 run: $(STAMP)
+	@echo "dashboard: http://127.0.0.1:8233/   API docs: http://127.0.0.1:8233/api/v1/docs"
 	$(BIN)/rc233-gateway serve --simulate --host 127.0.0.1 --port 8233
 
 lint: $(STAMP)
@@ -28,8 +29,13 @@ typecheck: $(STAMP)
 layers: $(STAMP)
 	$(BIN)/lint-imports
 
+# The browser tests (tests/browser) and bench/dashboard.py drive Debian's chromium: Playwright's
+# own browser download is not used. Installed here when missing (CI runs as root).
+chromium:
+	@test -x /usr/bin/chromium || { apt-get update && apt-get install -y chromium; }
+
 # The protocol layer is what everything stands on: it must stay >= 95 % covered (issue 2).
-unit: $(STAMP)
+unit: $(STAMP) chromium
 	$(BIN)/pytest -m "not contract" --cov --cov-report=term --cov-fail-under=90
 	$(BIN)/coverage report --include='gateway/protocol/*' --fail-under=95 > /dev/null \
 		|| { echo "gateway/protocol/ line coverage is under 95 %"; exit 1; }
@@ -40,9 +46,10 @@ contract: $(STAMP)
 	$(BIN)/pytest -m contract -p no:cov
 
 # The benchmarks print figures; here at scaled time (by hand: real time, see bench/README.md).
-bench: $(STAMP)
+bench: $(STAMP) chromium
 	$(BIN)/python bench/line_efficiency.py --time-scale 10 --seconds 3
 	$(BIN)/python bench/api.py --quick
+	$(BIN)/python bench/dashboard.py --seconds 3
 
 test: lint typecheck layers unit contract bench
 

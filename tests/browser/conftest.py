@@ -178,13 +178,15 @@ def start_simulated(tmp: Path, *options: str) -> Gateway:
     return Gateway(f"http://127.0.0.1:{port}", Line(control), process)
 
 
-@pytest.fixture(scope="session")
+# Module scope, not session: while Playwright's sync API is open its event loop counts as
+# running in this thread, and the asyncio tests of the other directories could not start theirs.
+@pytest.fixture(scope="module")
 def playwright() -> Iterator[Playwright]:
     with sync_playwright() as p:
         yield p
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="module")
 def browser(playwright: Playwright) -> Iterator[Browser]:
     if not CHROMIUM.exists():
         pytest.fail(f"no {CHROMIUM}: {INSTALL_HINT}")

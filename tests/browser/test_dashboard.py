@@ -120,6 +120,7 @@ def test_holding_jog_jogs_and_releasing_stops_within_200_ms(
     # y is motor 2 of controller 1: F2 then the CW jog (§10 F, 7)
     gateway.line.wait_heard(mark, lambda h: "7" in h)
     expect(page.get_by_test_id("axis-y")).to_contain_text("MOVING")
+    shot(page, "overview-live")  # the README's picture: x where the move left it, y jogging
     after_jog = gateway.line.mark()
     page.mouse.up()
     _, took = gateway.line.wait_heard(after_jog, lambda h: "S" in h or "SS" in h, timeout=5)

@@ -63,6 +63,7 @@ export function connect() {
     if (event.code === 4401 || event.code === 4403) {
       store.ws.error = event.code === 4401 ? "the gateway does not know the token (4401)" : "the token's role may not subscribe (4403)";
       store.authProblem = store.ws.error;
+      store.session = null; // back to the log-in, with the reason
       stopped = true;
     } else {
       store.ws.error = event.reason || (wasOpen ? "connection lost" : "cannot connect");
