@@ -145,6 +145,23 @@ def test_the_stop_button_stops_a_long_move(gateway: Gateway, session: Session) -
     assert 0 < sim_position(gateway, "2", 1) < 90_000
 
 
+def test_escape_stops_the_axis_in_focus(gateway: Gateway, session: Session) -> None:
+    assert gateway.line is not None
+    page = session.page
+    page.goto(gateway.url + "/#/axis/theta")
+    axis = page.get_by_test_id("axis-page")
+    value = axis.get_by_test_id("move-value")
+    value.fill("800")
+    value.press("Enter")
+    expect(axis).to_contain_text("MOVING")
+    mark = gateway.line.mark()
+    value.press("Escape")  # the focus is in theta's page: theta stops, nothing else
+    gateway.line.wait_heard(mark, lambda h: "SS" in h)
+    assert "SS" in gateway.line.heard(mark, body="2")
+    assert [t for b in ("1", "3") for t in gateway.line.heard(mark, body=b) if "S" in t] == []
+    expect(axis).to_contain_text("STOPPED")
+
+
 def test_ems_shows_as_a_latched_error_that_acknowledge_clears(
     gateway: Gateway, session: Session
 ) -> None:
