@@ -186,16 +186,22 @@ def playwright() -> Iterator[Playwright]:
         yield p
 
 
+def launch(playwright: Playwright, executable: Path = CHROMIUM) -> Browser:
+    """Debian's chromium, or the test fails (never skips) saying how to install it."""
+    if not executable.exists():
+        pytest.fail(f"no {executable}: {INSTALL_HINT}")
+    try:
+        return playwright.chromium.launch(executable_path=str(executable), args=CHROMIUM_ARGS)
+    except Exception as exc:  # any failure to start is the same message to the user
+        first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        pytest.fail(f"{executable} did not start ({first}): {INSTALL_HINT}")
+
+
 @pytest.fixture(scope="module")
 def browser(playwright: Playwright) -> Iterator[Browser]:
-    if not CHROMIUM.exists():
-        pytest.fail(f"no {CHROMIUM}: {INSTALL_HINT}")
-    try:
-        browser = playwright.chromium.launch(executable_path=str(CHROMIUM), args=CHROMIUM_ARGS)
-    except Exception as exc:  # any failure to start is the same message to the user
-        pytest.fail(f"chromium did not start ({exc}): {INSTALL_HINT}")
-    yield browser
-    browser.close()
+    started = launch(playwright)
+    yield started
+    started.close()
 
 
 @pytest.fixture(scope="module")
