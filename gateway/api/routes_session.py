@@ -13,7 +13,7 @@ from fastapi import APIRouter, Depends, Request
 from pydantic import BaseModel, Field
 
 from gateway.api.problems import PROBLEM_RESPONSES
-from gateway.api.security import Principal, require
+from gateway.api.security import AuthConfig, Principal, require
 from gateway.service.roles import Role
 
 __all__ = ["SessionView", "router"]
@@ -35,8 +35,5 @@ async def get_session(
 ) -> SessionView:
     """The caller's name and role, and whether the gateway asks for tokens at all."""
     auth = getattr(request.app.state, "auth", None)
-    return SessionView(
-        name=principal.name,
-        role=principal.role,
-        authentication=not getattr(auth, "no_auth", False),
-    )
+    open_api = isinstance(auth, AuthConfig) and auth.no_auth
+    return SessionView(name=principal.name, role=principal.role, authentication=not open_api)
