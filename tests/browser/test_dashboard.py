@@ -102,6 +102,8 @@ def test_a_move_typed_in_mm_ends_at_the_right_pulses(gateway: Gateway, session: 
     expect(op).to_contain_text("12.500 mm")
     assert sim_position(gateway, "1", 1) == 1250
     expect(page.get_by_test_id("axis-page").get_by_test_id("pulses")).to_have_text("1,250")
+    # the speed profile in the data of chapter 7 and in pps (OH 5000 at OX 300: 5,000 pps)
+    expect(page.locator("form.speed")).to_contain_text("5,000 pps")
     shot(page, "axis")
 
 
@@ -194,6 +196,19 @@ def test_the_program_editor_shows_the_step_of_an_error(gateway: Gateway, session
     shot(page, "program")
     editor.fill("/D00\n/0\n/END")
     expect(check).to_contain_text("✓ 3 steps")
+
+
+def test_the_line_trace_shows_the_frames_for_admins(gateway: Gateway, session: Session) -> None:
+    page = session.page
+    page.goto(gateway.url + "/#/trace/sim")
+    page.get_by_label("trace on").check()
+    trace = page.get_by_role("log")
+    # the poller's status reads of controller 1 and their replies, with timestamps
+    expect(trace.locator(".tl.tx", has_text="$1").first).to_be_visible()
+    expect(trace.locator(".tl.rx").first).to_contain_text(re.compile(r"\d\d:\d\d:\d\d\.\d{3}"))
+    page.get_by_label("hex").check()
+    expect(trace.locator(".tl.tx").last).to_contain_text(re.compile(r"24 3[0-9]"))  # '$' '1'..
+    page.get_by_label("trace on").uncheck()
 
 
 def test_killing_the_line_shows_the_loop_down_and_greys_the_values(
