@@ -17,11 +17,15 @@ import { TracePage } from "./trace.js";
 
 let loopTimer = null;
 
+let asked = false; // the first answer of /session came (until then: no log-in form flashes)
+
 async function start() {
   try {
     store.session = await get("/session");
     store.authProblem = null;
+    asked = true;
   } catch (err) {
+    asked = true;
     store.session = null;
     if (err instanceof ApiError && (err.status === 401 || err.status === 403)) {
       store.authProblem = token() ? err.message : null;
@@ -147,7 +151,9 @@ function App() {
     ${session ? html`<${Banner} />` : null}
     <main>${session
       ? html`<${View} hash=${hash} />`
-      : html`${store.ws.error && !store.authProblem ? html`<p class="problem">${store.ws.error}</p>` : null}<${Login} />`}</main>
+      : !asked
+        ? html`<p class="loading">Connecting to the gateway…</p>`
+        : html`${store.ws.error && !store.authProblem ? html`<p class="problem">${store.ws.error}</p>` : null}<${Login} />`}</main>
     <${Toasts} />
   </div>`;
 }

@@ -6,6 +6,7 @@ import { html, useEffect, useState } from "../vendor/preact-htm/standalone.modul
 import { stopController } from "./actions.js";
 import { get, put, seg } from "./api.js";
 import { axesOf, can, store, toast } from "./store.js";
+import { ControllerPicker } from "./widgets.js";
 
 function PositionTable({ ctl }) {
   const [start, setStart] = useState(0);
@@ -106,6 +107,7 @@ export function ControllerPage({ id }) {
     <header class="axishead">
       <a href="#/">← cell</a>
       <h2>${ctl.name || ctl.id}</h2>
+      <${ControllerPicker} view="controller" id=${ctl.id} />
       <span class="muted">${ctl.id} · mode ${ctl.mode ?? "?"} · ${ctl.version || ""}</span>
       ${reads ? html`<button class="stop" onClick=${() => stopController(ctl.id)}>STOP ${ctl.name || ctl.id}</button>` : null}
       <a class="button" href="#/program/${ctl.id}">Program…</a>

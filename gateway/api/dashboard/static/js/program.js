@@ -6,6 +6,7 @@
 import { html, useEffect, useRef, useState } from "../vendor/preact-htm/standalone.module.js";
 import { get, post, put, seg } from "./api.js";
 import { can, store, toast } from "./store.js";
+import { ControllerPicker } from "./widgets.js";
 
 // The wire text has no line breaks: each '/' starts a statement.
 export const toWire = (text) => text.replace(/[\r\n]+/g, "");
@@ -66,6 +67,7 @@ export function ProgramPage({ id }) {
     <header class="axishead">
       <a href="#/controller/${ctl.id}">← ${ctl.name || ctl.id}</a>
       <h2>Program of ${ctl.name || ctl.id}</h2>
+      <${ControllerPicker} view="program" id=${ctl.id} />
       <span class="muted">state ${STATES[ctl.program] || ctl.program || "?"}${status ? `, next step ${status.step}` : ""}</span>
     </header>
     <div class="editor">

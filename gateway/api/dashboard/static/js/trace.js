@@ -45,9 +45,13 @@ export function TracePage({ loop }) {
   if (!can("admin")) return html`<p class="muted">The line trace is for admins.</p>`;
   if (!name) return html`<p class="muted">No loop.</p>`;
   const set = async (settings) => {
+    const before = trace;
+    const wanted = { enabled: trace?.enabled ?? false, hex: trace?.hex ?? false, ...settings };
+    setTrace({ lines: [], ...trace, ...wanted }); // the switch shows what was asked at once
     try {
-      setTrace(await put(path, { enabled: trace?.enabled ?? false, hex: trace?.hex ?? false, ...settings }));
+      setTrace(await put(path, wanted));
     } catch (err) {
+      setTrace(before);
       toast(`Trace: ${err.message}`, "error", 9000);
     }
   };

@@ -146,3 +146,11 @@ export function HoldButton({ axisId, direction, speed = "low", children }) {
     onPointerCancel=${holdEnd} onPointerLeave=${holdEnd} onKeyDown=${key} onKeyUp=${keyUp}
     onContextMenu=${(e) => e.preventDefault()} title="hold to jog ${direction}">${children}</button>`;
 }
+
+// Another controller, same view (settings or program).
+export function ControllerPicker({ view, id }) {
+  const ids = [...store.controllers.values()];
+  return html`<select value=${id} aria-label="controller" onChange=${(e) => (location.hash = `#/${view}/${e.currentTarget.value}`)}>
+    ${ids.map((c) => html`<option value=${c.id}>${c.name ? `${c.name} (${c.id})` : c.id}</option>`)}
+  </select>`;
+}
