@@ -22,6 +22,7 @@ import tarfile
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 ROOT = Path(__file__).resolve().parent.parent
 VENDOR = ROOT / "gateway" / "api" / "dashboard" / "static" / "vendor"
@@ -92,7 +93,7 @@ def pack(pin: Pin, workdir: Path) -> tuple[Path, str]:
     return workdir / info["filename"], str(info["integrity"])
 
 
-def vendor(pin: Pin, workdir: Path) -> dict[str, object]:
+def vendor(pin: Pin, workdir: Path) -> dict[str, Any]:
     """Copy the pinned files of one package; its manifest entry."""
     tarball, integrity = pack(pin, workdir)
     target = VENDOR / pin.into
@@ -123,7 +124,7 @@ def main() -> int:
         packages = [vendor(pin, Path(tmp)) for pin in PINS]
     MANIFEST.write_text(json.dumps({"packages": packages}, indent=2) + "\n")
     for package in packages:
-        print(f"{package['name']}@{package['version']}: {len(package['files'])} files")  # type: ignore[arg-type]
+        print(f"{package['name']}@{package['version']}: {len(package['files'])} files")
     return 0
 
 
