@@ -98,9 +98,11 @@ def test_a_viewer_sees_the_cell_and_no_motion_controls(secured: Gateway, session
     page.goto(secured.url + "/#/axis/x")
     expect(page.get_by_test_id("axis-page")).to_contain_text("motion controls are for operators")
     expect(page.get_by_test_id("move-form")).to_have_count(0)
+    expect(page.get_by_test_id("axis-page").locator(".plot canvas")).to_be_visible()
     # the token is kept for the browser session: a reload does not ask again
     page.reload()
     expect(page.get_by_test_id("role")).to_have_text("watcher · viewer")
+    expect(page.get_by_test_id("axis-page").locator(".plot canvas")).to_be_visible()
     shot(page, "viewer")
 
 
