@@ -9,12 +9,13 @@ the stops and jogs but no admin control; a wrong token is a message, never a bro
 from __future__ import annotations
 
 import hashlib
+import json
 import re
 from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
-from playwright.sync_api import Page, expect
+from playwright.sync_api import Page, WebSocket, expect
 
 from tests.browser.conftest import GATEWAY, Gateway, Process, Session, free_port, shot
 
@@ -60,11 +61,12 @@ def secured(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Gateway]:
             [str(GATEWAY), "serve", "--config", str(_config(tmp, sim_port)), "--port", str(port)],
             tmp / "serve.log",
         )
+        running = Gateway(f"http://127.0.0.1:{port}", None, serve, [sim])
         try:
             serve.wait_for(r"Uvicorn running on")
-            yield Gateway(f"http://127.0.0.1:{port}", None, serve, [sim])
+            yield running
         finally:
-            serve.stop()
+            running.process.stop()  # the one a test restarted, if it did
     finally:
         sim.stop()
 
@@ -118,3 +120,36 @@ def test_an_operator_gets_motion_but_no_admin_controls(secured: Gateway, session
     expect(page.get_by_role("button", name="Upload")).to_have_count(0)
     page.get_by_role("button", name="log out").click()
     expect(page.get_by_test_id("login")).to_be_visible()
+
+
+def test_a_lost_connection_is_a_banner_and_grey_values_then_it_resumes(
+    secured: Gateway, session: Session
+) -> None:
+    page = session.page
+    subscribes: list[dict[str, object]] = []
+
+    def watch(ws: WebSocket) -> None:
+        ws.on("framesent", lambda payload: subscribes.append(json.loads(payload)))
+
+    page.on("websocket", watch)
+    _log_in(page, secured.url, TOKENS["watcher"][1])
+    card = page.get_by_test_id("axis-x")
+    expect(card.get_by_test_id("position")).to_have_text(re.compile(r"\d"))
+    expect(page.get_by_test_id("banner")).to_have_count(0)
+    # the gateway goes away: a banner, and every value greyed (never silently old)
+    argv = [str(a) for a in secured.process.proc.args]
+    secured.process.stop()
+    expect(page.get_by_test_id("banner")).to_contain_text("Disconnected")
+    opacity = card.get_by_test_id("position").evaluate("e => getComputedStyle(e).opacity")
+    assert float(opacity) < 0.5
+    shot(page, "disconnected")
+    # back: the page reconnects by itself, says where it was (since, stream), shows live values
+    secured.process = Process(argv, secured.process.log.with_name("serve-again.log"))
+    secured.process.wait_for(r"Uvicorn running on")
+    expect(page.get_by_test_id("connection")).to_have_text("live", timeout=20_000)
+    expect(page.get_by_test_id("banner")).to_have_count(0)
+    first, again = subscribes[0], subscribes[-1]
+    assert first["type"] == again["type"] == "subscribe" and "since" not in first
+    assert isinstance(again["since"], int) and again["since"] > 0 and again["stream"]
+    opacity = card.get_by_test_id("position").evaluate("e => getComputedStyle(e).opacity")
+    assert float(opacity) == 1
