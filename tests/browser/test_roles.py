@@ -140,6 +140,7 @@ def test_a_lost_connection_is_a_banner_and_grey_values_then_it_resumes(
     argv = [str(a) for a in secured.process.proc.args]
     secured.process.stop()
     expect(page.get_by_test_id("banner")).to_contain_text("Disconnected")
+    expect(page.get_by_test_id("loop-line1")).to_contain_text("UNKNOWN")  # not "UP" any more
     opacity = card.get_by_test_id("position").evaluate("e => getComputedStyle(e).opacity")
     assert float(opacity) < 0.5
     shot(page, "disconnected")

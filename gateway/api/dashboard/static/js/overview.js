@@ -15,11 +15,14 @@ export function LoopStrip() {
   return html`<div class="loops">
     ${loops.map((loop) => {
       const rate = store.rates.get(loop.name);
-      return html`<div class="loop ${loop.up ? "up" : "down"}" data-testid="loop-${loop.name}">
+      const known = store.ws.state === "open"; // else the last state seen, not the state now
+      return html`<div class="loop ${known ? (loop.up ? "up" : "down") : "grey"}" data-testid="loop-${loop.name}">
         <span class="loopname">${loop.name}</span>
-        ${loop.up
-          ? html`<${Badge} kind="up">UP<//>`
-          : html`<${Badge} kind="down" title=${loop.cause}>DOWN<//><span class="cause" data-testid="loop-cause">${loop.cause || ""}</span>`}
+        ${!known
+          ? html`<${Badge} kind="stale" title="not connected to the gateway">UNKNOWN<//>`
+          : loop.up
+            ? html`<${Badge} kind="up">UP<//>`
+            : html`<${Badge} kind="down" title=${loop.cause}>DOWN<//><span class="cause" data-testid="loop-cause">${loop.cause || ""}</span>`}
         <span class="metric" title="line utilisation">${rate ? `${(rate.utilisation * 100).toFixed(0)} %` : "…"} line</span>
         <span class="metric" title="requests waiting">queue ${loop.queue_depth ?? "—"}</span>
         <span class="metric" title="retries and time-outs per minute">${rate ? `${rate.retriesPerMin.toFixed(0)} retries, ${rate.timeoutsPerMin.toFixed(0)} t/o /min` : ""}</span>
@@ -33,7 +36,8 @@ export function LoopStrip() {
 }
 
 function ControllerHead({ ctl }) {
-  const online = ctl.online == null ? "probing" : ctl.online ? "online" : "offline";
+  const online =
+    store.ws.state !== "open" ? "unknown" : ctl.online == null ? "probing" : ctl.online ? "online" : "offline";
   return html`<header class="ctlhead">
     <div class="ctltitle">
       <a href="#/controller/${ctl.id}" class="ctlname">${ctl.name || ctl.id}</a>
@@ -109,7 +113,7 @@ export function Overview() {
   if (controllers.length === 0) return html`<p class="muted">Waiting for the gateway's snapshot…</p>`;
   return html`<div class="overview">
     ${controllers.map(
-      (ctl) => html`<div class="ctl ${loopDown(ctl.loop) || ctl.online === false ? "grey" : ""}" data-testid="controller-${ctl.id}">
+      (ctl) => html`<div class="ctl ${loopDown(ctl.loop) || ctl.online === false || store.ws.state !== "open" ? "grey" : ""}" data-testid="controller-${ctl.id}">
         <${ControllerHead} ctl=${ctl} />
         <div class="axes">${axesOf(ctl.id).map((axis) => html`<${AxisCard} key=${axis.id} axis=${axis} />`)}</div>
       </div>`,
