@@ -109,7 +109,10 @@ export function OpLine({ axisId }) {
       : `${op.kind}${op.request?.method ? ` ${op.request.method}` : ""}${op.request?.direction ? ` ${op.request.direction}` : ""}`;
   const end =
     op.state === "done" && op.position_user != null ? ` at ${fmt(op.position_user, digitsOf(axis.unit))} ${axis.unit}` : "";
-  const why = op.error ? `: ${op.error.title || op.error.kind}${op.error.detail ? ` (${op.error.detail})` : ""}` : "";
+  const e = op.error;
+  const why = e
+    ? `: ${e.title || e.kind}${e.detail ? ` (${e.detail})` : ""}${e.outcome ? `, outcome ${e.outcome.replace("_", " ")}` : ""}`
+    : "";
   return html`<div class="op ${op.state}" data-testid="op" title=${op.frames?.join(" ")}>
     <span class="opstate">${op.state}</span> ${what}${end}${why}
   </div>`;
