@@ -194,8 +194,14 @@ def test_the_program_editor_shows_the_step_of_an_error(gateway: Gateway, session
     expect(check).to_contain_text("step 2")
     expect(page.locator(".gutter .bad")).to_have_text("2")
     shot(page, "program")
+    # upload, then read back from the controller's RAM (IR) into the editor
     editor.fill("/D00\n/0\n/END")
     expect(check).to_contain_text("✓ 3 steps")
+    page.get_by_role("button", name="Upload").click()
+    expect(page.get_by_text("Upload: done")).to_be_visible()
+    editor.fill("")
+    page.get_by_role("button", name="Read back").click()
+    expect(editor).to_have_value("/D00\n/0\n/END")
 
 
 def test_the_line_trace_shows_the_frames_for_admins(gateway: Gateway, session: Session) -> None:

@@ -5,7 +5,7 @@
 
 import { html, useEffect, useRef, useState } from "../vendor/preact-htm/standalone.module.js";
 import { get, post, put, seg } from "./api.js";
-import { can, store, toast } from "./store.js";
+import { can, consoleOf, store, toast } from "./store.js";
 import { ControllerPicker } from "./widgets.js";
 
 // The wire text has no line breaks: each '/' starts a statement.
@@ -62,7 +62,7 @@ export function ProgramPage({ id }) {
   };
   const lines = text.split("\n");
   const badStep = check && !check.ok ? check.step : null;
-  const output = store.consoles.get(ctl.id) || [];
+  const output = consoleOf(ctl);
   return html`<div class="programpage">
     <header class="axishead">
       <a href="#/controller/${ctl.id}">← ${ctl.name || ctl.id}</a>
@@ -97,7 +97,7 @@ export function ProgramPage({ id }) {
     </div>
     <h3>Output</h3>
     <pre class="console" data-testid="program-console">${output.length
-      ? output.map((l) => `${new Date(l.time * 1000).toLocaleTimeString()}  ${l.text}\n`).join("")
+      ? output.map((l) => `${new Date(l.time * 1000).toLocaleTimeString()}  ${l.body ? "" : "(loop) "}${l.text}\n`).join("")
       : "(nothing yet)"}</pre>
   </div>`;
 }

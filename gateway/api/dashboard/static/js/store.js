@@ -106,13 +106,21 @@ export function applyOperation(op) {
   store.ops.set(op.axis, op);
 }
 
+// Output with a body number belongs to its controller; `/CO` text carries none (§12 /CO),
+// so it is kept per loop and shown with every controller of that loop.
 export function applyProgramOutput(data, time) {
-  const id = data.controller;
-  if (!id) return;
-  const lines = store.consoles.get(id) || [];
-  lines.push({ time, text: typeof data.data === "string" ? data.data : JSON.stringify(data.data) });
+  const key = data.controller || `loop:${data.loop}`;
+  const lines = store.consoles.get(key) || [];
+  const text = typeof data.data === "string" ? data.data : JSON.stringify(data.data);
+  lines.push({ time, text, body: !!data.controller });
   if (lines.length > CONSOLE_MAX) lines.splice(0, lines.length - CONSOLE_MAX);
-  store.consoles.set(id, lines);
+  store.consoles.set(key, lines);
+}
+
+export function consoleOf(ctl) {
+  const own = store.consoles.get(ctl.id) || [];
+  const loop = store.consoles.get(`loop:${ctl.loop}`) || [];
+  return [...own, ...loop].sort((a, b) => a.time - b.time);
 }
 
 // ------------------------------------------------------------------ derived
