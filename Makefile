@@ -14,7 +14,7 @@ STAMP   := $(VENV)/.installed-$(HASH)
 NODE_DIR   := tools/asyncapi
 NODE_STAMP := $(NODE_DIR)/node_modules/.installed
 
-.PHONY: run test lint typecheck layers unit contract bench clean system-tools
+.PHONY: run test lint typecheck layers unit contract bench clean system-tools chromium
 
 $(RUNTIME): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -47,6 +47,7 @@ $(NODE_STAMP): $(NODE_DIR)/package.json $(NODE_DIR)/package-lock.json | system-t
 	touch $(NODE_STAMP)
 
 run: $(RUNTIME)
+	@echo "dashboard: http://127.0.0.1:8233/   API docs: http://127.0.0.1:8233/api/v1/docs"
 	$(BIN)/rc233-gateway serve --simulate --host 127.0.0.1 --port 8233
 
 lint: $(STAMP)
@@ -58,8 +59,13 @@ typecheck: $(STAMP)
 layers: $(STAMP)
 	$(BIN)/lint-imports
 
+# The browser tests (tests/browser) and bench/dashboard.py drive Debian's chromium: Playwright's
+# own browser download is not used. Installed here when missing (CI runs as root).
+chromium:
+	@test -x /usr/bin/chromium || { apt-get update && apt-get install -y chromium; }
+
 # The protocol layer is what everything stands on: it must stay >= 95 % covered (issue 2).
-unit: $(STAMP) $(NODE_STAMP) system-tools
+unit: $(STAMP) $(NODE_STAMP) system-tools chromium
 	$(BIN)/pytest -m "not contract" --cov --cov-report=term --cov-fail-under=90
 	$(BIN)/coverage report --include='gateway/protocol/*' --fail-under=95 > /dev/null \
 		|| { echo "gateway/protocol/ line coverage is under 95 %"; exit 1; }
@@ -70,9 +76,10 @@ contract: $(STAMP)
 	$(BIN)/pytest -m contract -p no:cov
 
 # The benchmarks print figures; here at scaled time (by hand: real time, see bench/README.md).
-bench: $(STAMP)
+bench: $(STAMP) chromium
 	$(BIN)/python bench/line_efficiency.py --time-scale 10 --seconds 3
 	$(BIN)/python bench/api.py --quick
+	$(BIN)/python bench/dashboard.py --seconds 3
 
 test: lint typecheck layers unit contract bench
 

@@ -2,7 +2,9 @@
 
 ``create_app(gateway, no_auth=...)`` wires the service objects onto ``app.state`` (the
 routers read them from there) and mounts every router under ``/api/v1``; ``/healthz``,
-``/readyz`` and ``/metrics`` stay at the root for probes and scrapers. The app's lifespan
+``/readyz`` and ``/metrics`` stay at the root for probes and scrapers; the browser dashboard is
+served at ``/`` and the API docs at ``/api/v1/docs`` from the package's own files
+(``gateway.api.dashboard``). The app's lifespan
 starts the gateway's loops and, on shutdown, stops accepting requests, lets each loop's
 transaction in flight finish and closes the ports (issue 5, "Graceful shutdown").
 """
@@ -17,8 +19,16 @@ from fastapi import FastAPI
 from fastapi.middleware.cors import CORSMiddleware
 
 from gateway import __version__
-from gateway.api import routes_axes, routes_controllers, routes_loops, routes_operations, ws
+from gateway.api import (
+    routes_axes,
+    routes_controllers,
+    routes_loops,
+    routes_operations,
+    routes_session,
+    ws,
+)
 from gateway.api.audit import AuditLog, install_audit
+from gateway.api.dashboard import install_dashboard
 from gateway.api.health import install_operations
 from gateway.api.idempotency import install_idempotency
 from gateway.api.openapi_docs import install_openapi_docs, operation_id
@@ -30,6 +40,7 @@ from gateway.service.feed import Feed
 from gateway.service.gateway import Gateway
 from gateway.service.leases import Leases
 from gateway.service.operations import Operations
+from gateway.service.stops import StopAll
 
 __all__ = ["API_PREFIX", "create_app"]
 
@@ -76,7 +87,8 @@ def create_app(gateway: Gateway, *, auth: AuthConfig) -> FastAPI:
         description=DESCRIPTION,
         lifespan=lifespan,
         openapi_url=f"{API_PREFIX}/openapi.json",
-        docs_url=f"{API_PREFIX}/docs",
+        # Swagger UI from vendored files (install_dashboard): the docs work with no internet.
+        docs_url=None,
         redoc_url=None,
         generate_unique_id_function=operation_id,
     )
@@ -85,9 +97,12 @@ def create_app(gateway: Gateway, *, auth: AuthConfig) -> FastAPI:
     app.state.operations = operations
     app.state.axes = AxisService(gateway, operations, leases)
     app.state.controllers = ControllerService(gateway, leases, operations)
-    for module in (routes_axes, routes_operations, routes_controllers, routes_loops, ws):
+    app.state.stops = StopAll(gateway, operations)
+    modules = (routes_axes, routes_operations, routes_controllers, routes_loops, routes_session, ws)
+    for module in modules:
         app.include_router(module.router, prefix=API_PREFIX)
     ws.install_ws(app, feed)
+    install_dashboard(app, API_PREFIX)
     # Middleware added later wraps what was added before: the problem handlers innermost,
     # then security, idempotency, audit, metrics, and CORS outermost so that error
     # responses carry the CORS headers too.

@@ -16,12 +16,14 @@ from gateway.service.commands import ROLE_RULE
 from gateway.service.controllers import ControllerService
 from gateway.service.ctl_replies import CommandResponse
 from gateway.service.roles import Role
+from gateway.service.stops import StopAll
 
 __all__ = [
     "Admin",
     "Id",
     "Operator",
     "Service",
+    "Stops",
     "Viewer",
     "controllers",
     "forbid_unless",
@@ -41,6 +43,15 @@ def controllers(request: Request) -> ControllerService:
 
 
 Service = Annotated[ControllerService, Depends(controllers)]
+
+
+def stops(request: Request) -> StopAll:
+    """The stop-all of the app (controllers and loops)."""
+    service: StopAll = request.app.state.stops
+    return service
+
+
+Stops = Annotated[StopAll, Depends(stops)]
 
 
 def note_sent(request: Request, response: CommandResponse) -> CommandResponse:

@@ -13,7 +13,18 @@ from typing import TYPE_CHECKING, Annotated, Literal
 
 from fastapi import APIRouter, Body, Path, Query, Request
 
-from gateway.api.ctl_deps import Admin, Id, Operator, Service, Viewer, forbid_unless, note_sent
+from gateway.api.audit import audit_note
+from gateway.api.axis_requests import StopRequest
+from gateway.api.ctl_deps import (
+    Admin,
+    Id,
+    Operator,
+    Service,
+    Stops,
+    Viewer,
+    forbid_unless,
+    note_sent,
+)
 from gateway.api.problems import PROBLEM_RESPONSES
 from gateway.api.routes_programs import router as programs_router
 from gateway.protocol.models import Command
@@ -34,6 +45,7 @@ from gateway.service.ctl_models import (
     SensorLogicWrite,
 )
 from gateway.service.ctl_replies import CommandResponse
+from gateway.service.stops import ControllerStop
 from gateway.service.views import ControllerView
 
 __all__ = ["router"]
@@ -69,6 +81,22 @@ async def get_controller(
     """One controller as cached, or read now with ``fresh=true`` (status, mode, selected
     motor, positions, program state)."""
     return await service.fresh_view(id) if fresh else service.view(id)
+
+
+@router.post("/controllers/{id}/stop", response_model=ControllerStop)
+async def stop_controller(
+    id: Id,
+    request: Request,
+    stops: Stops,
+    _: Operator,
+    body: Annotated[StopRequest | None, Body()] = None,
+) -> ControllerStop:
+    """Stop both axes of the controller: one ``SS`` (decelerate) or ``S`` (immediate) at stop
+    priority, acting on whichever motor moves. Never refused to an operator (no lease,
+    motion or online check); the outcome says whether the controller took it."""
+    result = await stops.controller(id, (body or StopRequest()).mode)
+    audit_note(request, bytes_sent=result.frames, result=result.outcome.value)
+    return result
 
 
 # ---------------------------------------------------------------------- any command

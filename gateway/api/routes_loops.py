@@ -9,13 +9,16 @@ from __future__ import annotations
 
 from typing import Annotated
 
-from fastapi import APIRouter, Path, Query, Request
+from fastapi import APIRouter, Body, Path, Query, Request
 
-from gateway.api.ctl_deps import Admin, Service, Viewer, note_sent
+from gateway.api.audit import audit_note
+from gateway.api.axis_requests import StopRequest
+from gateway.api.ctl_deps import Admin, Operator, Service, Stops, Viewer, note_sent
 from gateway.api.problems import PROBLEM_RESPONSES
 from gateway.service.controllers import TraceSettings, TraceView
 from gateway.service.ctl_models import RawRequest
 from gateway.service.ctl_replies import CommandResponse
+from gateway.service.stops import LoopStop
 from gateway.service.views import LoopView
 
 __all__ = ["router"]
@@ -35,6 +38,23 @@ async def list_loops(service: Service, _: Viewer) -> list[LoopView]:
 async def get_loop(loop: Loop, service: Service, _: Viewer) -> LoopView:
     """One loop."""
     return service.loop(loop)
+
+
+@router.post("/loops/{loop}/stop", response_model=LoopStop)
+async def stop_loop(
+    loop: Loop,
+    request: Request,
+    stops: Stops,
+    _: Operator,
+    body: Annotated[StopRequest | None, Body()] = None,
+) -> LoopStop:
+    """Stop every axis of the loop: one stop per controller, all queued at stop priority at
+    once. Never refused to an operator; each controller's outcome is reported (a controller
+    that could not be reached is ``not_done``/``unknown`` with the reason, never left out)."""
+    result = await stops.loop(loop, (body or StopRequest()).mode)
+    frames = [frame for stop in result.stops for frame in stop.frames]
+    audit_note(request, bytes_sent=frames, result=result.outcome.value)
+    return result
 
 
 @router.post("/loops/{loop}/raw", response_model=CommandResponse)

@@ -18,6 +18,7 @@ from gateway.service.ctl_models import (
     Autostart,
     BufferWrite,
     CounterWrite,
+    ProgramCheck,
     ProgramData,
     ProgramRun,
     ProgramStatus,
@@ -137,3 +138,12 @@ async def put_autostart(
     ref = service.controller(id)
     response = await service.programs.set_autostart(ref, body.enabled, holder=who.name)
     return note_sent(request, response)
+
+
+@router.post("/programs/check", response_model=ProgramCheck)
+async def check_program(body: ProgramWrite, service: Service, _: Operator) -> ProgramCheck:
+    """Check a program text against the rules of chapters 11-12 without sending anything:
+    200 with its size, or 422 naming the step, the field and the rule (what an upload with
+    ``PUT /controllers/{id}/program`` would answer). For editors that check as you type."""
+    program = service.programs.check(body.text)
+    return ProgramCheck(steps=program.step_count, bytes=program.size_bytes)

@@ -173,7 +173,8 @@ async def serve(args: argparse.Namespace) -> int:
     )
     loops = ", ".join(f"{ref.name} ({ref.settings.port})" for ref in gateway.topology.loops())
     print(
-        f"rc233-gateway serve: http://{args.host}:{args.port}/api/v1 loops {loops}"
+        f"rc233-gateway serve: dashboard http://{args.host}:{args.port}/ "
+        f"API http://{args.host}:{args.port}/api/v1 loops {loops}"
         + (" [simulated]" if sim is not None else ""),
         flush=True,
     )

@@ -28,6 +28,7 @@ __all__ = [
     "PortView",
     "PositionEntry",
     "PositionWrite",
+    "ProgramCheck",
     "ProgramData",
     "ProgramRun",
     "ProgramStatus",
@@ -195,6 +196,13 @@ class ProgramWrite(_Request):
     """A user program's text (chapters 11-12), e.g. ``/D00/0//END``; validated first."""
 
     text: str = Field(min_length=1, max_length=20_000)
+
+
+class ProgramCheck(BaseModel):
+    """A program text that keeps every statically checkable rule of chapters 11-12."""
+
+    steps: int = Field(description="statements as GN counts them")
+    bytes: int = Field(description="JIS X 0201 bytes, as the capacity counts them (§10 I)")
 
 
 class ProgramText(BaseModel):

@@ -12,7 +12,7 @@ state cache latches it as a program error). Buffers and counters are ``GR``/``GW
 from __future__ import annotations
 
 from gateway.errors import InvalidInputError
-from gateway.protocol.program import parse_program
+from gateway.protocol.program import Program, parse_program
 from gateway.protocol.registry import parse
 from gateway.protocol.reply_values import PortByte, ProgramState
 from gateway.service.commands import CommandRunner, require_done
@@ -61,14 +61,19 @@ class ProgramService:
         result = await self.runner.run(ref, parse(text), holder=holder)
         return response_of(ref, require_done(ref, result))
 
-    async def upload(self, ref: ControllerRef, text: str, *, holder: str) -> CommandResponse:
-        """Validate ``text`` (chapters 11-12) and upload it (``I`` + text + CR)."""
+    def check(self, text: str) -> Program:
+        """``text`` parsed (chapters 11-12); a broken rule raises naming the step and field
+        (``body.text...``). Nothing is sent."""
         try:
-            program = parse_program(text)
+            return parse_program(text)
         except InvalidInputError as exc:
             field = "body.text" if exc.field in (None, "text") else f"body.text.{exc.field}"
             exc.field = field
             raise
+
+    async def upload(self, ref: ControllerRef, text: str, *, holder: str) -> CommandResponse:
+        """Validate ``text`` (chapters 11-12) and upload it (``I`` + text + CR)."""
+        program = self.check(text)
         command = parse("I")
         self.runner.check_lease(ref, [command], holder)
         self.runner.check_state(ref, [command])

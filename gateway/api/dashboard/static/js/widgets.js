@@ -1,0 +1,159 @@
+// Small pieces the views share: the position readout, badges, the soft-limit bar, latched
+// errors with their acknowledge button, the operation line, stop and hold-to-jog buttons.
+
+import { html } from "../vendor/preact-htm/standalone.module.js";
+import { acknowledge, holdEnd, holdStart, stopAxis } from "./actions.js";
+import { can, isCurrent, store } from "./store.js";
+
+// One formatter per digit count, made once: toLocaleString builds one per call (slow at 600
+// readings a second).
+const FORMATS = new Map();
+
+export function fmt(value, digits = 3) {
+  if (value == null || !isFinite(value)) return "—";
+  let format = FORMATS.get(digits);
+  if (!format) {
+    format = new Intl.NumberFormat("en-US", { minimumFractionDigits: digits, maximumFractionDigits: digits });
+    FORMATS.set(digits, format);
+  }
+  return format.format(value);
+}
+
+// Digits for a user unit: pulses are whole, mm and degrees to the thousandth.
+export function digitsOf(unit) {
+  return unit === "pulse" || unit === "pulses" ? 0 : 3;
+}
+
+export function age(updated) {
+  if (updated == null) return "never read";
+  const s = Math.max(0, Date.now() / 1000 - updated);
+  if (s < 1) return "now";
+  if (s < 60) return `${s.toFixed(0)} s ago`;
+  return `${(s / 60).toFixed(0)} min ago`;
+}
+
+export function Badge({ kind, children, title }) {
+  return html`<span class="badge ${kind}" title=${title}>${children}</span>`;
+}
+
+export function Position({ axis, big = true }) {
+  const digits = digitsOf(axis.unit);
+  return html`<div class="pos ${big ? "big" : ""}">
+    <span class="digits" data-testid="position">${fmt(axis.position_user ?? axis.position, digits)}</span>
+    <span class="unit">${axis.unit}</span>
+  </div>
+  <div class="pulses">
+    <span data-testid="pulses">${fmt(axis.position, 0)}</span> pulses
+  </div>`;
+}
+
+export function StateBadges({ axis }) {
+  const current = isCurrent(axis);
+  const op = store.ops.get(axis.id);
+  return html`<span class="badges">
+    ${!current
+      ? null
+      : axis.moving
+        ? html`<${Badge} kind="moving">MOVING<//>`
+        : html`<${Badge} kind="idle">STOPPED<//>`}
+    ${axis.stale ? html`<${Badge} kind="stale" title="no fresh reading: the value is old">STALE<//>` : null}
+    ${!current && !axis.stale ? html`<${Badge} kind="stale">NOT CURRENT<//>` : null}
+    <span class="age" title="time of the last reading">${age(axis.updated)}</span>
+    ${op && op.target_user != null && !["done", "failed", "unknown"].includes(op.state)
+      ? html`<span class="target">→ ${fmt(op.target_user, digitsOf(axis.unit))} ${axis.unit}</span>`
+      : null}
+  </span>`;
+}
+
+// The soft limits as a bar with the position (and the target) on it.
+export function LimitBar({ axis }) {
+  const { soft_min: lo, soft_max: hi } = axis;
+  if (lo == null || hi == null || hi <= lo) return html`<div class="limitbar none">no soft limits</div>`;
+  const pos = axis.position_user;
+  const op = store.ops.get(axis.id);
+  const target = op && !["done", "failed", "unknown"].includes(op.state) ? op.target_user : null;
+  const at = (v) => `${Math.min(100, Math.max(0, ((v - lo) / (hi - lo)) * 100))}%`;
+  const outside = pos != null && (pos < lo || pos > hi);
+  return html`<div class="limitbar ${outside ? "outside" : ""}" title="soft limits ${lo} … ${hi} ${axis.unit}">
+    <span class="lim lo">${lo}</span>
+    <div class="track">
+      ${target != null ? html`<div class="mark target" style=${{ left: at(target) }}></div>` : null}
+      ${pos != null ? html`<div class="mark pos" style=${{ left: at(pos) }}></div>` : null}
+    </div>
+    <span class="lim hi">${hi}</span>
+  </div>`;
+}
+
+const ERROR_NAMES = { limit: "LIMIT", emergency: "EMS", command: "COMMAND", step_out: "STEP-OUT" };
+
+export function Errors({ axis }) {
+  const on = Object.entries(axis.errors || {}).filter(([, v]) => v);
+  if (on.length === 0) return null;
+  const ack = () => {
+    const names = on.map(([k]) => ERROR_NAMES[k]).join(", ");
+    if (confirm(`Acknowledge ${names} on ${axis.name || axis.id}? The errors stop showing.`)) acknowledge(axis.id);
+  };
+  return html`<div class="errors" role="alert">
+    ${on.map(([k]) => html`<span class="err" data-testid="error-${k}">${ERROR_NAMES[k] || k}</span>`)}
+    ${can("operator") ? html`<button class="ack" onClick=${ack}>Acknowledge</button>` : null}
+  </div>`;
+}
+
+export function OpLine({ axisId }) {
+  const op = store.ops.get(axisId);
+  if (!op) return html`<div class="op empty"> </div>`;
+  const axis = store.axes.get(axisId) || {};
+  const what =
+    op.kind === "move" && op.target_user != null
+      ? `move → ${fmt(op.target_user, digitsOf(axis.unit))} ${axis.unit}`
+      : `${op.kind}${op.request?.method ? ` ${op.request.method}` : ""}${op.request?.direction ? ` ${op.request.direction}` : ""}`;
+  const end =
+    op.state === "done" && op.position_user != null ? ` at ${fmt(op.position_user, digitsOf(axis.unit))} ${axis.unit}` : "";
+  const e = op.error;
+  const why = e
+    ? `: ${e.title || e.kind}${e.detail ? ` (${e.detail})` : ""}${e.outcome ? `, outcome ${e.outcome.replace("_", " ")}` : ""}`
+    : "";
+  return html`<div class="op ${op.state}" data-testid="op" title=${op.frames?.join(" ")}>
+    <span class="opstate">${op.state}</span> ${what}${end}${why}
+  </div>`;
+}
+
+export function StopButton({ axisId, label = "STOP", cls = "" }) {
+  if (!can("operator")) return null;
+  return html`<button class="stop ${cls}" data-testid="stop" onClick=${() => stopAxis(axisId)}
+    title="Stop now (Escape)">${label}</button>`;
+}
+
+// Press and hold: pointer, or Space/Enter on the focused button. Sliding off the button
+// stops too: a finger that wanders never leaves a jog running.
+export function HoldButton({ axisId, direction, speed = "low", children }) {
+  if (!can("operator")) return null;
+  const start = (e) => {
+    e.preventDefault();
+    e.currentTarget.focus();
+    holdStart(axisId, direction, speed);
+  };
+  const key = (e) => {
+    if ((e.key === " " || e.key === "Enter") && !e.repeat) {
+      e.preventDefault();
+      holdStart(axisId, direction, speed);
+    }
+  };
+  const keyUp = (e) => {
+    if (e.key === " " || e.key === "Enter") {
+      e.preventDefault();
+      holdEnd();
+    }
+  };
+  return html`<button class="jog" data-testid="jog-${direction}" onPointerDown=${start} onPointerUp=${holdEnd}
+    onPointerCancel=${holdEnd} onPointerLeave=${holdEnd} onKeyDown=${key} onKeyUp=${keyUp}
+    onContextMenu=${(e) => e.preventDefault()} title="hold to jog ${direction}">${children}</button>`;
+}
+
+// Another controller, same view (settings or program).
+export function ControllerPicker({ view, id }) {
+  const ids = [...store.controllers.values()];
+  return html`<select value=${id} aria-label="controller" onChange=${(e) => (location.hash = `#/${view}/${e.currentTarget.value}`)}>
+    ${ids.map((c) => html`<option value=${c.id}>${c.name ? `${c.name} (${c.id})` : c.id}</option>`)}
+  </select>`;
+}
