@@ -122,10 +122,11 @@ def _edge_node(
     gateway: Gateway, config: GatewayConfig, auth: AuthConfig, app: Any
 ) -> EdgeNode | None:
     """The Sparkplug B edge node of ``[mqtt]`` (None without the section); its DCMDs are
-    authorised by the API's tokens and written to the API's audit log."""
+    authorised by the API's tokens (always: no-auth mode is for loopback, a broker is not)
+    and written to the API's audit log."""
     if config.mqtt is None:
         return None
-    commands = DeviceCommands(app.state.axes, auth.authenticate, app.state.audit.record)
+    commands = DeviceCommands(app.state.axes, auth.book.lookup, app.state.audit.record)
     mqtt = config.mqtt
     print(f"rc233-gateway serve: Sparkplug B edge node {mqtt.group}/{mqtt.edge_node} on "
           f"{mqtt.host}:{mqtt.port}", flush=True)  # fmt: skip

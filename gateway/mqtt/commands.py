@@ -4,7 +4,9 @@ A host writes, in one DCMD to a controller's device, ``Command/Token`` (an API t
 same the REST API takes) and any of ``Axis/<a>/Stop = true`` and ``Axis/<a>/Errors/Ack =
 true``. The token must name an operator or an admin (as ``POST /axes/{id}/stop``); anything
 else is refused whole. Every DCMD, refused ones too, is one entry in the audit log, with
-``method`` ``DCMD`` and the topic as ``path``; the token itself is never recorded.
+``method`` ``DCMD`` and the topic as ``path``; the token itself is never recorded. A token is
+needed even when the REST API runs without authentication (``--no-auth``, ``--simulate``):
+that mode is for loopback, and a broker is not.
 
 Stop is ``SS`` (decelerate): what a remote host should ask of a machine it does not see.
 Nothing else is accepted over MQTT: moves, settings and programs stay on the REST API.
@@ -60,10 +62,10 @@ class DeviceCommands:
     def __init__(
         self,
         axes: StopAxes,
-        authenticate: Callable[[str | None, str], Principal | None],
+        lookup: Callable[[str], Principal | None],
         audit: Callable[[Mapping[str, Any]], object],
     ) -> None:
-        self.axes, self.authenticate, self.audit = axes, authenticate, audit
+        self.axes, self.lookup, self.audit = axes, lookup, audit
 
     async def handle(
         self, topic: str, ctl: ControllerRef, labels: Mapping[str, str], metrics: dict[str, Value]
@@ -71,7 +73,7 @@ class DeviceCommands:
         """Carry out one DCMD to ``ctl`` (``labels``: axis label -> axis id); (status, text)."""
         began = time.perf_counter()
         token = metrics.pop(TOKEN, None)
-        principal = self.authenticate(token if isinstance(token, str) else None, "mqtt")
+        principal = self.lookup(token) if isinstance(token, str) and token else None
         actions: list[tuple[str, str]] = []
         status, result = 200, "done"
         for name, value in metrics.items():
