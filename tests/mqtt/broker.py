@@ -105,8 +105,8 @@ class Received:
 class Central:
     """The plant's view: one subscriber on every Sparkplug topic of the broker."""
 
-    def __init__(self, port: int) -> None:
-        self.port = port
+    def __init__(self, port: int, identifier: str = "central") -> None:
+        self.port, self.identifier = port, identifier
         self.messages: list[Received] = []
         self.aliases: dict[tuple[str, int], str] = {}  # (node, alias) -> metric name
         self._new = asyncio.Event()
@@ -114,13 +114,21 @@ class Central:
         self.client: aiomqtt.Client | None = None
 
     async def __aenter__(self) -> Central:
-        self.client = aiomqtt.Client("127.0.0.1", self.port, identifier=f"central-{id(self)}")
+        await self.connect()
+        return self
+
+    async def connect(self) -> None:
+        """Connect (again) and subscribe."""
+        self.client = aiomqtt.Client("127.0.0.1", self.port, identifier=self.identifier)
         await self.client.__aenter__()
         await self.client.subscribe("spBv1.0/#", qos=1)
         self._task = asyncio.create_task(self._read(self.client))
-        return self
 
     async def __aexit__(self, *exc: object) -> None:
+        await self.disconnect()
+
+    async def disconnect(self) -> None:
+        """Stop reading and close the connection (the broker may be gone already)."""
         assert self._task is not None and self.client is not None
         self._task.cancel()
         with contextlib.suppress(BaseException):
