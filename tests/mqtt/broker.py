@@ -260,3 +260,18 @@ class Cell:
         if self.process is not None and self.process.returncode is None:
             self.process.send_signal(signal.SIGTERM)
             await asyncio.wait_for(self.process.wait(), WAIT)
+
+
+def seqs_in_order(messages: list[Received]) -> list[int]:
+    """The ``seq`` of one node's messages from its NBIRTH on; fails on a gap or a repeat."""
+    seqs: list[int] = []
+    for m in messages:
+        if m.kind == "NDEATH":  # the will carries no seq
+            continue
+        assert m.payload.seq is not None, m.topic
+        if m.kind == "NBIRTH":
+            assert m.payload.seq == 0
+        elif seqs:
+            assert m.payload.seq == (seqs[-1] + 1) % 256, (m.topic, seqs[-5:], m.payload.seq)
+        seqs.append(m.payload.seq)
+    return seqs
