@@ -99,7 +99,9 @@ class Received:
     device: str | None
     payload: Payload
     at: float  # wall clock when it arrived
-    values: dict[str, Any] = field(default_factory=dict)  # metric name -> value (None: null)
+    payload_bytes: bytes = b""
+    #: metric name -> value (None: null)
+    values: dict[str, Any] = field(default_factory=dict)
 
 
 class Central:
@@ -149,9 +151,11 @@ class Central:
                     self.aliases[node, m.alias] = m.name
                 name = m.name or self.aliases.get((node, m.alias or -1), f"?{m.alias}")
                 values[name] = None if m.is_null else m.value
-            self.messages.append(
-                Received(str(message.topic), kind, node, device, payload, time.time(), values)
-            )
+            received = Received(
+                str(message.topic), kind, node, device, payload, time.time(),
+                message.payload, values,
+            )  # fmt: skip
+            self.messages.append(received)
             self._new.set()
 
     async def publish(self, topic: str, payload: bytes) -> None:
