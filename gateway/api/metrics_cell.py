@@ -24,6 +24,7 @@ from pathlib import Path
 from gateway import __version__
 from gateway.api.exposition import Exposition
 from gateway.bus.events import BusEvent, TransactionDone
+from gateway.bus.state_types import ErrorKind
 from gateway.service.events import EventKind, ServiceEvent
 from gateway.service.gateway import Gateway
 from gateway.service.operation_types import FINAL
@@ -97,9 +98,9 @@ class CellMetrics:
         )
         for ref in controllers:
             latched = cache.controller(ref.loop, ref.body).latched
-            for error in latched:
+            for error in ErrorKind:
                 labels = {**_ctl(ref.id, ref.name), "kind": error.value}
-                out.sample("rc233_controller_error_latched", labels, 1)
+                out.sample("rc233_controller_error_latched", labels, int(error in latched))
         out.family("rc233_controller_operations_total", "counter", "Operations ended, by state.")
         for (controller, op_kind, state), count in sorted(self.operations.items()):
             labels = {"controller": controller, "kind": op_kind, "state": state}
