@@ -7,7 +7,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-$(shell $(PYTHON) -c "import hashlib,sys;print(hashlib.sha1(open('pyproject.toml','rb').read()).hexdigest()[:12])")
 
-.PHONY: run test lint typecheck layers unit contract bench clean
+.PHONY: run test tools lint typecheck layers unit contract bench clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -44,7 +44,12 @@ bench: $(STAMP)
 	$(BIN)/python bench/line_efficiency.py --time-scale 10 --seconds 3
 	$(BIN)/python bench/api.py --quick
 
-test: lint typecheck layers unit contract bench
+# The real software the tests run against: mosquitto (MQTT) and promtool (Prometheus rules).
+tools:
+	@command -v mosquitto >/dev/null || [ -x /usr/sbin/mosquitto ] && command -v promtool >/dev/null \
+		|| { apt-get update && apt-get install -y --no-install-recommends mosquitto prometheus; }
+
+test: tools lint typecheck layers unit contract bench
 
 clean:
 	rm -rf $(VENV) .pytest_cache .mypy_cache .ruff_cache .coverage .hypothesis
