@@ -16,9 +16,11 @@ import asyncio
 import contextlib
 import json
 import os
+import pwd
 import shutil
 import signal
 import socket
+import subprocess
 import sys
 import time
 from dataclasses import dataclass, field
@@ -42,10 +44,23 @@ def free_port() -> int:
         return int(s.getsockname()[1])
 
 
+def _access(workdir: Path, users: dict[str, str] | None) -> str:
+    if not users:
+        return "allow_anonymous true\n"
+    passwords = workdir / "passwords"
+    passwords.touch()
+    for name, password in users.items():
+        subprocess.run(["mosquitto_passwd", "-b", str(passwords), name, password], check=True)
+    # run as root, mosquitto becomes user "mosquitto", who cannot read the test's directory
+    user = pwd.getpwuid(os.getuid()).pw_name
+    return f"allow_anonymous false\npassword_file {passwords}\nuser {user}\n"
+
+
 class Broker:
     """mosquitto on 127.0.0.1:``port``."""
 
-    def __init__(self, workdir: Path) -> None:
+    def __init__(self, workdir: Path, users: dict[str, str] | None = None) -> None:
+        """``users``: name -> password; then nobody else may connect."""
         binary = shutil.which("mosquitto") or "/usr/sbin/mosquitto"
         if not Path(binary).exists():
             pytest.fail("mosquitto is not installed: apt-get install -y mosquitto (make test does)")
@@ -53,8 +68,9 @@ class Broker:
         self.port = free_port()
         self.conf = workdir / "mosquitto.conf"
         self.conf.write_text(
-            f"listener {self.port} 127.0.0.1\nallow_anonymous true\npersistence false\n"
-            "log_dest stderr\nlog_type error\nlog_type warning\nlog_type notice\n"
+            f"listener {self.port} 127.0.0.1\npersistence false\n"
+            + _access(workdir, users)
+            + "log_dest stderr\nlog_type error\nlog_type warning\nlog_type notice\n"
             "log_type information\n"
         )
         self.process: asyncio.subprocess.Process | None = None
@@ -66,13 +82,17 @@ class Broker:
         )
         assert self.process.stderr is not None
         seen = []
-        async with asyncio.timeout(WAIT):
-            while True:
-                line = (await self.process.stderr.readline()).decode()
-                seen.append(line)
-                assert line, f"mosquitto ended: {''.join(seen)}"
-                if " running" in line:
-                    break
+        try:
+            async with asyncio.timeout(WAIT):
+                while True:
+                    line = (await self.process.stderr.readline()).decode()
+                    seen.append(line)
+                    assert line, f"mosquitto ended: {''.join(seen)}"
+                    if " running" in line:
+                        break
+        except BaseException:
+            await self.stop()  # leave no broker behind
+            raise
         asyncio.get_running_loop().create_task(self._drain(self.process))
 
     @staticmethod
@@ -107,8 +127,9 @@ class Received:
 class Central:
     """The plant's view: one subscriber on every Sparkplug topic of the broker."""
 
-    def __init__(self, port: int, identifier: str = "central") -> None:
-        self.port, self.identifier = port, identifier
+    def __init__(self, port: int, identifier: str = "central",
+                 login: tuple[str, str] | None = None) -> None:  # fmt: skip
+        self.port, self.identifier, self.login = port, identifier, login
         self.messages: list[Received] = []
         self.aliases: dict[tuple[str, int], str] = {}  # (node, alias) -> metric name
         self._new = asyncio.Event()
@@ -121,7 +142,10 @@ class Central:
 
     async def connect(self) -> None:
         """Connect (again) and subscribe."""
-        self.client = aiomqtt.Client("127.0.0.1", self.port, identifier=self.identifier)
+        user, password = self.login or (None, None)
+        self.client = aiomqtt.Client(
+            "127.0.0.1", self.port, identifier=self.identifier, username=user, password=password
+        )
         await self.client.__aenter__()
         await self.client.subscribe("spBv1.0/#", qos=1)
         self._task = asyncio.create_task(self._read(self.client))

@@ -7,42 +7,12 @@ happen: 300 positions give 300 DDATA, past 255 -> 0.
 
 from __future__ import annotations
 
-import asyncio
-from collections.abc import AsyncIterator
-from contextlib import asynccontextmanager
-
 from gateway.bus.events import ReplyObserved
-from gateway.mqtt.edge_node import EdgeNode
 from gateway.protocol.registry import parse
-from gateway.service.config import MqttSettings
 from gateway.service.gateway import Gateway
-from gateway.service.simulated import SIM_LOOP, simulated_config
-from gateway.sim.cli import build_loop
-from gateway.sim.serve import SimPort
-from gateway.transport.pipe import PipeTransport
+from gateway.service.simulated import SIM_LOOP
 from tests.mqtt.broker import Broker, Central, seqs_in_order
-
-
-@asynccontextmanager
-async def edge_node(port: int) -> AsyncIterator[tuple[Gateway, EdgeNode]]:
-    """A gateway whose loops are not started (the test feeds its cache) and its edge node."""
-    sim = build_loop(["1"])
-    gateway = Gateway(
-        simulated_config(["1"]), transports={SIM_LOOP: PipeTransport(lambda: SimPort(sim))}
-    )
-    settings = MqttSettings(host="127.0.0.1", port=port, group="plant", edge_node="fed")
-    node = EdgeNode(gateway, settings)
-    gateway.state.set_link(SIM_LOOP, True, 0.0)
-    gateway.state.set_online(SIM_LOOP, "1", True, 0.0)
-    task = asyncio.create_task(node.run())
-    try:
-        await asyncio.wait_for(node.connected.wait(), 20)
-        yield gateway, node
-    finally:
-        task.cancel()
-        await asyncio.gather(task, return_exceptions=True)
-        node.close()
-        sim.close()
+from tests.mqtt.in_process import edge_node
 
 
 def position(gateway: Gateway, pulses: int, at: float) -> None:
