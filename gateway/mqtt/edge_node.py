@@ -26,10 +26,10 @@ import contextlib
 import logging
 import random
 import ssl
-from collections.abc import Mapping
 
 import aiomqtt
 
+from gateway.bus.events import BusEvent, TransactionDone
 from gateway.bus.state_types import Change
 from gateway.mqtt.commands import DeviceCommands
 from gateway.mqtt.metric_table import MetricTable, Values, axis_label, changed, device_id, millis
@@ -68,11 +68,14 @@ class EdgeNode:
         self._rebirth = False
         self._node_sent: Values = {}
         self._sent: dict[str, Values] = {}  # device -> what its DBIRTH and DDATAs said
-        self._busy_mark: dict[str, tuple[float, float]] = {}  # loop -> (busy, device seconds)
+        #: loop -> host seconds its line was held by transactions (measured, as /metrics)
+        self.busy: dict[str, float] = {name: 0.0 for name in gateway.schedulers}
+        self._busy_mark: dict[str, tuple[float, float]] = {}  # loop -> (busy, host time)
         self._utilisation: dict[str, float | None] = {}
         self._unlisten = [
             gateway.state.listen(self._on_change),
             gateway.events.subscribe(self._on_event),
+            *(s.events.subscribe(self._on_bus) for s in gateway.schedulers.values()),
         ]
 
     # ------------------------------------------------------------------ cache -> marks
@@ -91,8 +94,8 @@ class EdgeNode:
                 for (loop, _), dev in self._by_body.items():
                     if loop == change.loop:
                         self._mark(dev)
-            if "counters" in change.values:
-                self._measure(change.loop, change.values["counters"], change.time)
+            if "counters" in change.values:  # about once a second (StateCache.counters_period)
+                self._measure(change.loop, change.time)
             self._wake.set()
             return
         device = self._by_body.get((change.loop, change.body))
@@ -108,14 +111,17 @@ class EdgeNode:
         self.table.targets[axis.id] = target if isinstance(target, int) else None
         self._mark(self._by_body[axis.loop, axis.body])
 
-    def _measure(self, loop: str, counters: Mapping[str, float], when: float) -> None:
-        """Line utilisation between two counter updates: wire seconds / device seconds."""
-        busy = float(counters.get("busy_time", 0.0))
-        device_now = when * self.gateway.device_seconds(loop)
+    def _on_bus(self, event: BusEvent) -> None:
+        if isinstance(event, TransactionDone):
+            self.busy[event.loop] = self.busy.get(event.loop, 0.0) + event.duration
+
+    def _measure(self, loop: str, when: float) -> None:
+        """Line utilisation since the last counters update: measured busy over elapsed."""
+        busy = self.busy.get(loop, 0.0)
         last = self._busy_mark.get(loop)
-        self._busy_mark[loop] = (busy, device_now)
-        if last is not None and device_now > last[1]:
-            self._utilisation[loop] = round(min(1.0, (busy - last[0]) / (device_now - last[1])), 4)
+        self._busy_mark[loop] = (busy, when)
+        if last is not None and when > last[1]:
+            self._utilisation[loop] = round(min(1.0, (busy - last[0]) / (when - last[1])), 4)
 
     # ------------------------------------------------------------------ running
 
@@ -240,6 +246,7 @@ class EdgeNode:
         extra: dict[str, Value] = {"MQTT/Superseded": self.superseded}
         for loop in self.gateway.topology.loops():
             extra[f"Loops/{loop.name}/Line Utilisation"] = self._utilisation.get(loop.name)
+            extra[f"Loops/{loop.name}/Busy Seconds"] = round(self.busy.get(loop.name, 0.0), 6)
         return self.table.node_values(self.bd_seq, extra)
 
     async def _send(self, client: aiomqtt.Client, where: str, metrics: list[Metric],

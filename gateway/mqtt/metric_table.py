@@ -6,7 +6,8 @@ once from the configuration, so a host keeps its aliases across rebirths.
 
 Node metrics: ``bdSeq``, ``Node Control/Rebirth``, ``Properties/Version`` and per loop
 ``Loops/<loop>/Up``, ``Cause``, ``Line Utilisation``, ``Queue Depth``, ``Transactions``,
-``Retries``, ``Timeouts``, ``Busy Seconds``; ``MQTT/Superseded``.
+``Retries``, ``Timeouts``, ``Busy Seconds`` (host seconds the line was held by transactions,
+measured as ``rc233_loop_busy_seconds_total``); ``MQTT/Superseded``.
 
 Device metrics: ``Online``, ``Mode``, ``Version``, ``Program``, ``Moving``,
 ``Errors/<kind>`` for the controller-only latches, and per axis (named as configured, else
@@ -171,8 +172,6 @@ class MetricTable:
             for label, key in LOOP_COUNTERS.items():
                 count = state.counters.get(key)
                 out[base + label] = (None if count is None else int(count), stamp)
-            busy = state.counters.get("busy_time")
-            out[base + "Busy Seconds"] = (None if busy is None else float(busy), stamp)
         return out
 
     def device_values(self, device: str) -> Values:

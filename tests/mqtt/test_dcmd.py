@@ -87,6 +87,8 @@ async def test_dcmd_stop_needs_an_operator_token_and_is_audited(
             if token is not None:
                 metrics["Command/Token"] = token
             await central.publish(DCMD, _dcmd(**metrics))
+        other = {"Command/Token": TOKENS["operator"][0], "Axis/x/Target": True}
+        await central.publish(DCMD, _dcmd(**other))  # not a command metric: nothing of it
         await central.publish(
             DCMD, _dcmd(**{"Command/Token": TOKENS["operator"][0], "Axis/x/Stop": True})
         )
@@ -100,7 +102,7 @@ async def test_dcmd_stop_needs_an_operator_token_and_is_audited(
         assert 0 < api.position("1", 1) < 60000  # stopped on its way, in the simulator
         assert all(m.values.get("Axis/x/Position") != 60000 for m in central.of("cmd"))
         entries = _audited(api)
-        assert [e["status"] for e in entries] == [401, 401, 403, 200]
+        assert [e["status"] for e in entries] == [401, 401, 403, 422, 200]
         assert entries[-1]["token"] == "operator" and entries[-1]["path"] == DCMD
         assert all("Command/Token" not in str(e["body"]) for e in entries)
         assert all(TOKENS["operator"][0] not in str(e) for e in entries)
