@@ -19,6 +19,7 @@ import time
 from collections.abc import Callable, Mapping
 from typing import Any, Protocol
 
+from gateway.errors import GatewayError
 from gateway.mqtt.sparkplug import Value
 from gateway.service.axis_types import StopMode
 from gateway.service.roles import Role
@@ -92,12 +93,15 @@ class DeviceCommands:
         elif not actions and status == 200:
             status, result = 422, "no command metric"
         if status == 200:
-            for axis, what in actions:
-                if what == "Stop":
-                    outcome = await self.axes.stop(axis, StopMode.DECELERATE)
-                    result = str(getattr(outcome, "outcome", "done"))
-                else:
-                    self.axes.acknowledge(axis, None)
+            try:
+                for axis, what in actions:
+                    if what == "Stop":
+                        outcome = await self.axes.stop(axis, StopMode.DECELERATE)
+                        result = str(getattr(outcome, "outcome", "done"))
+                    else:
+                        self.axes.acknowledge(axis, None)
+            except GatewayError as exc:  # the loop is down, the device did not answer...
+                status, result = 503, f"{type(exc).__name__}: {exc}"
         self.audit(
             {
                 "time": _utc(),

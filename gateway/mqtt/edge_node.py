@@ -140,6 +140,8 @@ class EdgeNode:
                         "mqtt: broker %s:%d: %s; again in %.1f s",
                         self.settings.host, self.settings.port, exc, wait,
                     )  # fmt: skip
+                except Exception:  # never leave the plant without the node: log, try again
+                    log.exception("mqtt: edge node failed; again in %.1f s", wait)
                 self.connected.clear()
                 await asyncio.sleep(wait * random.uniform(0.5, 1.0))
                 wait = min(wait * 2, self.settings.reconnect_max)
@@ -212,6 +214,8 @@ class EdgeNode:
                     await self._command(str(message.topic), bytes(payload))
                 except ValueError as exc:
                     log.warning("mqtt: %s: %s", message.topic, exc)
+                except Exception:  # a command's failure must not end the session
+                    log.exception("mqtt: %s failed", message.topic)
         finally:
             self._wake.set()  # the publisher sees the connection's end
 

@@ -7,7 +7,11 @@ from pathlib import Path
 
 from tests.mqtt.broker import Broker, Cell, Central, metric
 
-AXES = ("x", "y")
+DEVICES = {"gantry": ("x", "y"), "head": ("z", "theta"), "handler": ("gripper", "conveyor")}
+CONTROLLER_METRICS = (
+    "Online", "Mode", "Version", "Program", "Moving", "Errors/communication_error",
+    "Errors/program_error",
+)  # fmt: skip
 NODE_METRICS = (
     "bdSeq", "Node Control/Rebirth", "Properties/Version", "Loops/sim/Up", "Loops/sim/Cause",
     "Loops/sim/Line Utilisation", "Loops/sim/Queue Depth", "Loops/sim/Transactions",
@@ -31,13 +35,18 @@ async def test_births_carry_every_metric_and_ddata_follows_a_move(
             metric(nbirth, name)
         assert nbirth.values["Node Control/Rebirth"] is False
         aliases = [m.alias for m in nbirth.payload.metrics]
+        for device, axes in DEVICES.items():
+            birth = await central.wait_for("DBIRTH", node="cell1", device=device)
+            for name in CONTROLLER_METRICS:
+                metric(birth, name)
+            for axis in axes:
+                for name in AXIS_METRICS:
+                    metric(birth, f"Axis/{axis}/{name}")
+            assert "Axis/x/Stop" not in birth.values  # DCMD off by default
+            aliases += [m.alias for m in birth.payload.metrics]
+        # one alias per metric across the node and its devices (Sparkplug 3.0 6.4.2)
         assert None not in aliases and len(set(aliases)) == len(aliases)
         dbirth = await central.wait_for("DBIRTH", node="cell1", device="gantry")
-        for name in ("Online", "Mode", "Version", "Program", "Moving"):
-            metric(dbirth, name)
-        for axis in AXES:
-            for name in AXIS_METRICS:
-                metric(dbirth, f"Axis/{axis}/{name}")
         assert metric(dbirth, "Axis/x/Position User").properties == {"engUnit": "mm"}
         assert dbirth.values["Axis/x/Soft Max"] == 940.0
         # once read, the device's values are there (report by exception: the DDATA that
@@ -54,6 +63,11 @@ async def test_births_carry_every_metric_and_ddata_follows_a_move(
         end = await central.wait_for(
             "DDATA", device="gantry", since=start,
             where=lambda m: m.values.get("Axis/x/Moving") is False,
+        )  # fmt: skip
+        # the last position read may follow the end of the motion (or come with it)
+        await central.wait_for(
+            "DDATA", device="gantry", since=start,
+            where=lambda m: m.values.get("Axis/x/Position") == 20000,
         )  # fmt: skip
         positions = [
             m.values["Axis/x/Position"]
