@@ -20,6 +20,7 @@ import pwd
 import shutil
 import signal
 import socket
+import ssl
 import subprocess
 import sys
 import time
@@ -45,22 +46,23 @@ def free_port() -> int:
 
 
 def _access(workdir: Path, users: dict[str, str] | None) -> str:
+    # run as root, mosquitto becomes user "mosquitto", who cannot read the test's directory
+    user = f"user {pwd.getpwuid(os.getuid()).pw_name}\n"
     if not users:
-        return "allow_anonymous true\n"
+        return "allow_anonymous true\n" + user
     passwords = workdir / "passwords"
     passwords.touch()
     for name, password in users.items():
         subprocess.run(["mosquitto_passwd", "-b", str(passwords), name, password], check=True)
-    # run as root, mosquitto becomes user "mosquitto", who cannot read the test's directory
-    user = pwd.getpwuid(os.getuid()).pw_name
-    return f"allow_anonymous false\npassword_file {passwords}\nuser {user}\n"
+    return f"allow_anonymous false\npassword_file {passwords}\n" + user
 
 
 class Broker:
     """mosquitto on 127.0.0.1:``port``."""
 
-    def __init__(self, workdir: Path, users: dict[str, str] | None = None) -> None:
-        """``users``: name -> password; then nobody else may connect."""
+    def __init__(self, workdir: Path, users: dict[str, str] | None = None, tls: str = "") -> None:
+        """``users``: name -> password; then nobody else may connect. ``tls``: the
+        listener's ``cafile``/``certfile``/``keyfile`` lines."""
         binary = shutil.which("mosquitto") or "/usr/sbin/mosquitto"
         if not Path(binary).exists():
             pytest.fail("mosquitto is not installed: apt-get install -y mosquitto (make test does)")
@@ -68,7 +70,7 @@ class Broker:
         self.port = free_port()
         self.conf = workdir / "mosquitto.conf"
         self.conf.write_text(
-            f"listener {self.port} 127.0.0.1\npersistence false\n"
+            f"listener {self.port} 127.0.0.1\n{tls}persistence false\n"
             + _access(workdir, users)
             + "log_dest stderr\nlog_type error\nlog_type warning\nlog_type notice\n"
             "log_type information\n"
@@ -128,8 +130,9 @@ class Central:
     """The plant's view: one subscriber on every Sparkplug topic of the broker."""
 
     def __init__(self, port: int, identifier: str = "central",
-                 login: tuple[str, str] | None = None) -> None:  # fmt: skip
-        self.port, self.identifier, self.login = port, identifier, login
+                 login: tuple[str, str] | None = None,
+                 tls: ssl.SSLContext | None = None) -> None:  # fmt: skip
+        self.port, self.identifier, self.login, self.tls = port, identifier, login, tls
         self.messages: list[Received] = []
         self.aliases: dict[tuple[str, int], str] = {}  # (node, alias) -> metric name
         self._new = asyncio.Event()
@@ -144,8 +147,9 @@ class Central:
         """Connect (again) and subscribe."""
         user, password = self.login or (None, None)
         self.client = aiomqtt.Client(
-            "127.0.0.1", self.port, identifier=self.identifier, username=user, password=password
-        )
+            "127.0.0.1", self.port, identifier=self.identifier, username=user, password=password,
+            tls_context=self.tls,
+        )  # fmt: skip
         await self.client.__aenter__()
         await self.client.subscribe("spBv1.0/#", qos=1)
         self._task = asyncio.create_task(self._read(self.client))
