@@ -283,7 +283,8 @@ class EdgeNode:
         if self._node_dirty:
             self._node_dirty = False
             values = self._node_values()
-            moved = changed(self._node_sent, values, lambda n: n == "MQTT/Superseded")
+            # (MQTT/Superseded goes along when anything else of the node moves: at most ~1/s)
+            moved = changed(self._node_sent, values)
             if moved:
                 metrics = self.table.metrics(self.table.node, values, moved)
                 await self._send(client, self._topic(Message.NDATA), metrics)

@@ -24,7 +24,7 @@ described at all: the edge node sends its DDEATH.
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 from gateway import __version__
@@ -230,11 +230,6 @@ class MetricTable:
         return out
 
 
-def changed(last: Values, now: Values, ignore: Callable[[str], bool] = lambda _: False
-            ) -> list[str]:  # fmt: skip
+def changed(last: Values, now: Values) -> list[str]:
     """The names whose value moved (timestamps alone do not count: report by exception)."""
-    return [
-        name
-        for name, (value, _) in now.items()
-        if not ignore(name) and (name not in last or last[name][0] != value)
-    ]
+    return [name for name, (value, _) in now.items() if name not in last or last[name][0] != value]
