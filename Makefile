@@ -2,8 +2,8 @@
 # Each creates its own virtual environment (.venv) and installs what it needs,
 # so both work on a fresh machine with nothing but python3 (>= 3.11).
 # `make run` installs the runtime dependencies only (what `pip install rc233-gateway` brings);
-# `make test` adds the `test` extra, the AsyncAPI parser (npm) and the Debian tools the
-# deployment tests drive (ser2net, systemd-analyze).
+# `make test` adds the `test` extra, the AsyncAPI parser (npm) and the Debian software the
+# tests drive (system-tools below).
 
 PYTHON  ?= python3
 VENV    := .venv
@@ -14,7 +14,7 @@ STAMP   := $(VENV)/.installed-$(HASH)
 NODE_DIR   := tools/asyncapi
 NODE_STAMP := $(NODE_DIR)/node_modules/.installed
 
-.PHONY: run test lint typecheck layers unit contract bench clean system-tools chromium
+.PHONY: run test lint typecheck layers unit contract bench clean system-tools
 
 $(RUNTIME): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -27,9 +27,11 @@ $(STAMP): $(RUNTIME)
 	rm -f $(VENV)/.installed-*
 	touch $(STAMP)
 
-# Debian tools the tests drive, installed when missing (CI runs as root): Node.js and npm for
-# the AsyncAPI parser, ser2net in front of the simulator, systemd-analyze for the unit file,
-# curl for the README's first calls.
+# The real software the tests drive, from Debian, installed when missing (CI runs as root):
+# Node.js and npm for the AsyncAPI parser, chromium for the dashboard's browser tests and
+# bench/dashboard.py (Playwright's own browser download is not used), mosquitto for the MQTT
+# tests, promtool (package prometheus) for the alert rules, ser2net in front of the simulator,
+# systemd-analyze for the unit file, curl for the README's first calls.
 system-tools:
 	@missing=""; \
 	command -v node >/dev/null || missing="$$missing nodejs"; \
@@ -37,6 +39,9 @@ system-tools:
 	command -v ser2net >/dev/null || missing="$$missing ser2net"; \
 	command -v systemd-analyze >/dev/null || missing="$$missing systemd"; \
 	command -v curl >/dev/null || missing="$$missing curl"; \
+	test -x /usr/bin/chromium || missing="$$missing chromium"; \
+	test -x /usr/sbin/mosquitto || missing="$$missing mosquitto"; \
+	command -v promtool >/dev/null || missing="$$missing prometheus"; \
 	if [ -n "$$missing" ]; then \
 		echo "installing$$missing"; \
 		apt-get update -q && DEBIAN_FRONTEND=noninteractive apt-get install -y -q $$missing; \
@@ -59,24 +64,19 @@ typecheck: $(STAMP)
 layers: $(STAMP)
 	$(BIN)/lint-imports
 
-# The browser tests (tests/browser) and bench/dashboard.py drive Debian's chromium: Playwright's
-# own browser download is not used. Installed here when missing (CI runs as root).
-chromium:
-	@test -x /usr/bin/chromium || { apt-get update && apt-get install -y chromium; }
-
-# The protocol layer is what everything stands on: it must stay >= 95 % covered (issue 2).
-unit: $(STAMP) $(NODE_STAMP) system-tools chromium
+# The protocol layer is what everything stands on: it must stay >= 95 % covered.
+unit: $(STAMP) $(NODE_STAMP) system-tools
 	$(BIN)/pytest -m "not contract" --cov --cov-report=term --cov-fail-under=90
 	$(BIN)/coverage report --include='gateway/protocol/*' --fail-under=95 > /dev/null \
 		|| { echo "gateway/protocol/ line coverage is under 95 %"; exit 1; }
 
-# schemathesis against openapi.json (issue 5): generated requests, every response checked.
+# schemathesis against openapi.json: generated requests, every response checked.
 # Without coverage: tracing the generator and the server thread makes it ten times slower.
 contract: $(STAMP)
 	$(BIN)/pytest -m contract -p no:cov
 
 # The benchmarks print figures; here at scaled time (by hand: real time, see bench/README.md).
-bench: $(STAMP) chromium
+bench: $(STAMP) system-tools
 	$(BIN)/python bench/line_efficiency.py --time-scale 10 --seconds 3
 	$(BIN)/python bench/api.py --quick
 	$(BIN)/python bench/dashboard.py --seconds 3

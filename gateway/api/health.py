@@ -98,6 +98,14 @@ async def metrics(request: Request) -> Response:
     return Response(_metrics(request).render(), media_type=CONTENT_TYPE)
 
 
+@router.head("/metrics", include_in_schema=False)
+async def metrics_head(request: Request) -> Response:
+    """What ``GET /metrics`` would answer, without the body (probes, curl -I)."""
+    body = _metrics(request).render().encode()
+    headers = {"Content-Length": str(len(body))}
+    return Response(media_type=CONTENT_TYPE, headers=headers)
+
+
 def install_operations(
     app: FastAPI, gateway: MetricsSource | None, *, ws: WsStats | None = None
 ) -> Metrics:

@@ -2,14 +2,17 @@
 exposition format 0.0.4, written here (no client library).
 
 Per loop (label ``loop``): the scheduler's counters (``CountersSnapshot``), whether the line is
-up, queue depth, line utilisation and a histogram of transaction durations (from its
-``TransactionDone`` events, by priority). WebSocket clients and dropped clients (the hub
-reports into ``WsStats``). HTTP requests by route template, method and status, and a duration
-histogram (``HttpMetricsMiddleware``).
+up, queue depth, transactions by outcome, the line's measured busy time and utilisation ratio
+and a histogram of transaction durations (from its ``TransactionDone`` events, by priority).
+Per controller and axis, ``rc233_build_info`` and ``process_*``: gateway/api/metrics_cell.py.
+WebSocket clients and dropped clients (the hub reports into ``WsStats``). HTTP requests by
+route template, method and status, and a duration histogram (``HttpMetricsMiddleware``).
 
-Durations are host seconds (what a caller waits). ``busy_seconds`` is device seconds of wire
-time (gateway/bus/counters.py); utilisation divides it by the elapsed device seconds since the
-loop was first seen (host seconds times the loop's time scale).
+Durations are host seconds (what a caller waits). ``rc233_loop_busy_seconds_total`` is their
+sum, measured: the line is held from a transaction's first byte out to its last reply, so a
+device server's extra latency (ser2net, an RFC 2217 box) shows in it and in
+``rc233_loop_line_utilisation_ratio`` (busy over elapsed host seconds).
+``rc233_loop_wire_seconds_total`` is the computed figure: the bytes at the baud rate.
 """
 
 from __future__ import annotations
@@ -24,11 +27,13 @@ from fastapi import FastAPI
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from gateway.api.exposition import Exposition, Histogram
+from gateway.api.metrics_cell import CellMetrics, render_build_and_process
 from gateway.api.security import api_routes
 from gateway.bus.config import LoopConfig
 from gateway.bus.counters import CountersSnapshot
 from gateway.bus.events import BusEvent, EventBus, TransactionDone
 from gateway.bus.lifecycle import LinkState
+from gateway.service.gateway import Gateway
 
 __all__ = [
     "CONTENT_TYPE",
@@ -206,7 +211,6 @@ class HttpMetricsMiddleware:
 
 #: CountersSnapshot field -> (metric name, help)
 _COUNTERS: dict[str, tuple[str, str]] = {
-    "transactions": ("rc233_loop_transactions_total", "Transactions carried out."),
     "exchanges": ("rc233_loop_exchanges_total", "Frames sent, retries and read-backs included."),
     "retries": ("rc233_loop_retries_total", "Frames sent again ('?' or a lost reply)."),
     "naks": ("rc233_loop_naks_total", "'?' replies (not taken, manual 9-2)."),
@@ -219,19 +223,27 @@ _COUNTERS: dict[str, tuple[str, str]] = {
     "stale_bytes": ("rc233_loop_stale_bytes_total", "Stray bytes discarded before a send."),
     "bytes_out": ("rc233_loop_bytes_sent_total", "Bytes written to the line."),
     "bytes_in": ("rc233_loop_bytes_received_total", "Bytes read from the line."),
-    "busy_time": ("rc233_loop_busy_seconds_total", "Device seconds of wire time, both ways."),
+    "busy_time": (
+        "rc233_loop_wire_seconds_total",
+        "Device seconds of wire time both ways, computed from the bytes at the baud rate.",
+    ),
     "coalesced": ("rc233_loop_coalesced_total", "Requests answered by an identical one."),
     "expired": ("rc233_loop_expired_total", "Requests whose deadline passed before they began."),
     "link_downs": ("rc233_loop_link_downs_total", "Times the line went down."),
 }
-assert set(_COUNTERS) == {f.name for f in fields(CountersSnapshot)}, "a counter is not exported"
+#: ``transactions`` is ``rc233_loop_transactions_total{outcome}``, counted from the events
+_BY_OUTCOME = {"transactions"}
+assert set(_COUNTERS) | _BY_OUTCOME == {f.name for f in fields(CountersSnapshot)}, (
+    "a counter is not exported"
+)
 
 
 @dataclass
 class _LoopWatch:
     started: float
-    busy_at_start: float
     unsubscribe: Callable[[], None]
+    #: host seconds the line was held by transactions, as measured (their durations)
+    busy: float = 0.0
     durations: dict[str, Histogram] = field(default_factory=dict)
     outcomes: dict[str, int] = field(default_factory=dict)
 
@@ -244,6 +256,8 @@ class Metrics:
         self.ws = ws if ws is not None else WsStats()
         self.http = HttpMetrics()
         self._loops: dict[str, _LoopWatch] = {}
+        #: the per-controller and per-axis series, for a real gateway (not a test's stand-in)
+        self.cell = CellMetrics(gateway) if isinstance(gateway, Gateway) else None
         self.attach()
 
     def attach(self) -> None:
@@ -253,8 +267,7 @@ class Metrics:
         for name, loop in self.gateway.schedulers.items():
             if name in self._loops:
                 continue
-            busy = self.gateway.loop_counters(name).busy_time
-            watch = _LoopWatch(loop.clock(), busy, lambda: None)
+            watch = _LoopWatch(loop.clock(), lambda: None)
             watch.unsubscribe = loop.events.subscribe(self._on_event_of(watch))
             self._loops[name] = watch
 
@@ -263,6 +276,8 @@ class Metrics:
         for watch in self._loops.values():
             watch.unsubscribe()
         self._loops.clear()
+        if self.cell is not None:
+            self.cell.close()
 
     @staticmethod
     def _on_event_of(watch: _LoopWatch) -> Callable[[BusEvent], None]:
@@ -273,6 +288,7 @@ class Metrics:
                 if hist is None:
                     hist = watch.durations[priority] = Histogram(TRANSACTION_BUCKETS)
                 hist.observe(event.duration)
+                watch.busy += event.duration
                 outcome = str(event.outcome)
                 watch.outcomes[outcome] = watch.outcomes.get(outcome, 0) + 1
 
@@ -282,7 +298,10 @@ class Metrics:
         """The exposition text of every metric now."""
         self.attach()
         out = Exposition()
+        render_build_and_process(out)
         self._render_loops(out)
+        if self.cell is not None:
+            self.cell.render(out)
         self._render_ws(out)
         self._render_http(out)
         return out.text()
@@ -305,26 +324,27 @@ class Metrics:
         out.family("rc233_loop_queue_depth", "gauge", "Requests waiting to start.")
         for name, loop in loops:
             out.sample("rc233_loop_queue_depth", {"loop": name}, loop.queue_depth)
+        metric = "rc233_loop_busy_seconds_total"
+        out.family(metric, "counter", "Host seconds the line was held by transactions (measured).")
+        for name, _ in loops:
+            out.sample(metric, {"loop": name}, self._loops[name].busy)
         out.family(
-            "rc233_loop_line_utilisation",
+            "rc233_loop_line_utilisation_ratio",
             "gauge",
-            "Fraction of device time the line carried bytes, since the gateway began watching.",
+            "Measured busy seconds over elapsed seconds since the gateway began watching: "
+            "a device server's latency shows here, not in the wire time.",
         )
         for name, loop in loops:
             watch = self._loops[name]
-            elapsed = (loop.clock() - watch.started) * loop.config.time_scale
-            busy = snapshots[name].busy_time - watch.busy_at_start
-            out.sample(
-                "rc233_loop_line_utilisation",
-                {"loop": name},
-                busy / elapsed if elapsed > 0 else 0.0,
-            )
-        out.family("rc233_loop_transactions_completed_total", "counter", "Transactions by outcome.")
+            elapsed = loop.clock() - watch.started
+            ratio = min(1.0, watch.busy / elapsed) if elapsed > 0 else 0.0
+            out.sample("rc233_loop_line_utilisation_ratio", {"loop": name}, ratio)
+        out.family("rc233_loop_transactions_total", "counter", "Transactions by outcome.")
         for name, _ in loops:
             for outcome, count in sorted(self._loops[name].outcomes.items()):
                 labels = {"loop": name, "outcome": outcome}
-                out.sample("rc233_loop_transactions_completed_total", labels, count)
-        metric = "rc233_transaction_duration_seconds"
+                out.sample("rc233_loop_transactions_total", labels, count)
+        metric = "rc233_loop_transaction_duration_seconds"
         out.family(metric, "histogram", "Host seconds from a transaction's start to its end.")
         for name, _ in loops:
             for priority, hist in sorted(self._loops[name].durations.items()):

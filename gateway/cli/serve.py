@@ -30,6 +30,8 @@ from gateway.api.security import AuthConfig, is_loopback
 from gateway.api.ws import uvicorn_ws_options
 from gateway.cli.logs import configure_logging
 from gateway.cli.notify import notify
+from gateway.mqtt.commands import DeviceCommands
+from gateway.mqtt.edge_node import EdgeNode
 from gateway.protocol.framing import Series
 from gateway.service.config import ConfigError, GatewayConfig, load_config
 from gateway.service.gateway import Gateway
@@ -137,6 +139,21 @@ def _auth(args: argparse.Namespace, config: GatewayConfig) -> AuthConfig:
     return auth
 
 
+def _edge_node(
+    gateway: Gateway, config: GatewayConfig, auth: AuthConfig, app: Any
+) -> EdgeNode | None:
+    """The Sparkplug B edge node of ``[mqtt]`` (None without the section); its DCMDs are
+    authorised by the API's tokens (always: no-auth mode is for loopback, a broker is not)
+    and written to the API's audit log."""
+    if config.mqtt is None:
+        return None
+    commands = DeviceCommands(app.state.axes, auth.book.lookup, app.state.audit.record)
+    mqtt = config.mqtt
+    print(f"rc233-gateway serve: Sparkplug B edge node {mqtt.group}/{mqtt.edge_node} on "
+          f"{mqtt.host}:{mqtt.port}", flush=True)  # fmt: skip
+    return EdgeNode(gateway, mqtt, commands=commands)
+
+
 async def serve(args: argparse.Namespace) -> int:
     """Run the API until SIGINT/SIGTERM; the exit code."""
     sim: SimLoop | None = None
@@ -178,13 +195,19 @@ async def serve(args: argparse.Namespace) -> int:
         + (" [simulated]" if sim is not None else ""),
         flush=True,
     )
+    edge_node = _edge_node(gateway, config, auth, app)
     # Everything built so far lives as long as the process: keep the collector from walking
     # it again and again (a full pass paused WebSocket fan-out by ~140 ms, bench/README.md).
     gc.collect()
     gc.freeze()
+    node_task = asyncio.create_task(edge_node.run()) if edge_node is not None else None
     try:
         await server.serve()
     finally:
+        if node_task is not None and edge_node is not None:
+            node_task.cancel()
+            await asyncio.gather(node_task, return_exceptions=True)
+            edge_node.close()
         if control is not None:
             control.close()
         if sim is not None:

@@ -18,7 +18,14 @@ import tomllib
 from pathlib import Path
 from typing import Annotated, Literal, Self
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    SecretStr,
+    ValidationError,
+    model_validator,
+)
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
 from gateway.errors import GatewayError
@@ -32,6 +39,7 @@ __all__ = [
     "ControllerSettings",
     "GatewayConfig",
     "LoopSettings",
+    "MqttSettings",
     "PollSettings",
     "SecuritySettings",
     "TimeoutSettings",
@@ -166,6 +174,42 @@ class WsSettings(_Strict):
     ping_interval: float = Field(20.0, gt=0, le=600)
 
 
+class MqttSettings(_Strict):
+    """The Sparkplug B edge node (gateway/mqtt): off unless the section is present.
+
+    ``group`` and ``edge_node`` are Sparkplug ids: no ``+``, ``/`` or ``#`` (MQTT wildcards
+    and the topic separator). ``password`` is a secret: never logged, never shown.
+    """
+
+    host: str = Field(min_length=1)
+    port: int = Field(1883, ge=1, le=65535)
+    group: str = Field(pattern=r"^[^+/#\s]{1,64}$")
+    edge_node: str = Field(pattern=r"^[^+/#\s]{1,64}$")
+    #: the MQTT client id; default ``rc233-<group>-<edge_node>``
+    client_id: str | None = Field(None, min_length=1, max_length=64)
+    username: str | None = None
+    password: SecretStr | None = None
+    #: TLS to the broker: the CA bundle that signs its certificate (system CAs when omitted)
+    tls: bool = False
+    ca_file: Path | None = None
+    cert_file: Path | None = None
+    key_file: Path | None = None
+    keepalive: int = Field(30, ge=5, le=3600, description="seconds")
+    #: DCMD stop and acknowledge; off by default (commands then only over the REST API)
+    commands: bool = False
+    #: reconnect back-off: first and longest wait in seconds
+    reconnect_min: float = Field(0.5, gt=0, le=60)
+    reconnect_max: float = Field(30.0, gt=0, le=600)
+
+    @model_validator(mode="after")
+    def _tls_files(self) -> Self:
+        if not self.tls and (self.ca_file or self.cert_file or self.key_file):
+            raise ValueError("ca_file, cert_file and key_file need tls = true")
+        if (self.cert_file is None) != (self.key_file is None):
+            raise ValueError("cert_file and key_file go together (client certificate)")
+        return self
+
+
 class GatewayConfig(BaseSettings):
     """The whole configuration (a TOML file, environment ``RC233_*`` over it)."""
 
@@ -175,6 +219,7 @@ class GatewayConfig(BaseSettings):
     security: SecuritySettings = SecuritySettings()
     audit_log: Path | None = None
     ws: WsSettings = WsSettings()
+    mqtt: MqttSettings | None = None
 
     @model_validator(mode="after")
     def _names_unique(self) -> Self:

@@ -166,22 +166,24 @@ def test_loop_counters_gauges_and_the_latency_histogram():
     clock.now = 110.0  # 10 host seconds at time scale 10: 100 device seconds
     fams = parse_exposition(metrics.render())
 
-    expected = {"transactions": 5, "exchanges": 9, "retries": 2, "naks": 1, "timeouts": 3,
+    expected = {"exchanges": 9, "retries": 2, "naks": 1, "timeouts": 3,
                 "garbled": 1, "late_replies": 1, "link_downs": 1}  # fmt: skip
     for name, count in expected.items():
         metric = f"rc233_loop_{name}_total"
         assert fams[metric].kind == "counter"
         assert value(fams, metric, loop="main") == count
         assert value(fams, metric, loop="aux") == 0
-    assert value(fams, "rc233_loop_busy_seconds_total", loop="main") == 4.0
-    # 3.0 s of wire time in 100 device seconds
-    assert value(fams, "rc233_loop_line_utilisation", loop="main") == pytest.approx(0.03)
+    assert value(fams, "rc233_loop_wire_seconds_total", loop="main") == 4.0
+    # measured: the transactions held the line 3.364 s of the 10 host seconds watched
+    assert value(fams, "rc233_loop_busy_seconds_total", loop="main") == pytest.approx(3.364)
+    ratio = value(fams, "rc233_loop_line_utilisation_ratio", loop="main")
+    assert ratio == pytest.approx(0.3364)
     assert value(fams, "rc233_loop_queue_depth", loop="main") == 4
     assert value(fams, "rc233_loop_up", loop="main") == 1
     assert value(fams, "rc233_loop_up", loop="aux") == 0
     assert value(fams, "rc233_gateway_ready") == 0
 
-    hist = "rc233_transaction_duration_seconds"
+    hist = "rc233_loop_transaction_duration_seconds"
     assert fams[hist].kind == "histogram"
     op = {"loop": "main", "priority": "operator"}
     cumulative = {le: value(fams, f"{hist}_bucket", **op, le=le)
@@ -190,7 +192,8 @@ def test_loop_counters_gauges_and_the_latency_histogram():
     assert value(fams, f"{hist}_count", **op) == 4
     assert value(fams, f"{hist}_sum", **op) == pytest.approx(3.064)
     assert value(fams, f"{hist}_count", loop="main", priority="poll") == 1
-    completed = "rc233_loop_transactions_completed_total"
+    completed = "rc233_loop_transactions_total"
+    assert "rc233_loop_transactions_completed_total" not in fams  # one family per concept
     assert value(fams, completed, loop="main", outcome="done") == 4
     assert value(fams, completed, loop="main", outcome="unknown") == 1
 
@@ -298,14 +301,16 @@ async def test_a_simulated_loop_counts_every_transaction():
         await gateway.close()
         sim.close()
     fams = parse_exposition(text)
-    hist = "rc233_transaction_duration_seconds"
+    hist = "rc233_loop_transaction_duration_seconds"
     counts = {dict(k[1])["priority"]: v for k, v in fams[hist].samples.items()
               if k[0] == f"{hist}_count"}  # fmt: skip
     assert counts["operator"] == 3  # ours; the poller's are at poll priority
-    assert value(fams, "rc233_loop_transactions_total", loop=SIM_LOOP) == snapshot.transactions
+    by_outcome = {dict(k[1])["outcome"]: v for k, v in fams["rc233_loop_transactions_total"]
+                  .samples.items() if dict(k[1])["loop"] == SIM_LOOP}  # fmt: skip
+    assert sum(by_outcome.values()) == snapshot.transactions
     assert sum(counts.values()) == snapshot.transactions
     assert value(fams, "rc233_loop_exchanges_total", loop=SIM_LOOP) == snapshot.exchanges
     assert value(fams, "rc233_loop_bytes_sent_total", loop=SIM_LOOP) == snapshot.bytes_out > 0
-    utilisation = value(fams, "rc233_loop_line_utilisation", loop=SIM_LOOP)
+    utilisation = value(fams, "rc233_loop_line_utilisation_ratio", loop=SIM_LOOP)
     assert 0 < utilisation <= 1
     assert value(fams, "rc233_loop_up", loop=SIM_LOOP) == 1
