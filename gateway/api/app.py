@@ -18,6 +18,7 @@ from fastapi.middleware.cors import CORSMiddleware
 
 from gateway.api import routes_axes, routes_controllers, routes_loops, routes_operations, ws
 from gateway.api.audit import AuditLog, install_audit
+from gateway.api.body_gate import BodyGate
 from gateway.api.health import install_operations
 from gateway.api.idempotency import install_idempotency
 from gateway.api.problems import install_problem_handlers
@@ -86,11 +87,13 @@ def create_app(gateway: Gateway, *, auth: AuthConfig) -> FastAPI:
         app.include_router(module.router, prefix=API_PREFIX)
     ws.install_ws(app, feed)
     # Middleware added later wraps what was added before: the problem handlers innermost,
-    # then security, idempotency, audit, metrics, and CORS outermost so that error
-    # responses carry the CORS headers too.
+    # then security, idempotency, the body gate (inside the audit, which records what it
+    # refuses), audit, metrics, and CORS outermost so that error responses carry the CORS
+    # headers too.
     install_problem_handlers(app)
     install_security(app, auth)
     install_idempotency(app)
+    app.add_middleware(BodyGate)
     install_audit(app, audit)
     install_operations(app, gateway)
     origins = list(gateway.config.security.cors_origins)

@@ -43,7 +43,9 @@ ContactName = Literal["A", "B"]
 
 
 class _Request(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    # Strict: JSON numbers and booleans only (no "5" for 5, no 1 for true); enum fields opt
+    # out, as pydantic's strict mode would want enum members rather than their JSON strings.
+    model_config = ConfigDict(extra="forbid", frozen=True, strict=True)
 
 
 class PortView(BaseModel):
@@ -184,7 +186,7 @@ class EepromArea(StrEnum):
 class EepromRequest(_Request):
     """Which EEPROM area to save or load."""
 
-    area: EepromArea
+    area: EepromArea = Field(strict=False)
 
 
 # ---------------------------------------------------------------------- programs
@@ -250,7 +252,7 @@ class CounterWrite(_Request):
 class Autostart(BaseModel):
     """Program autostart at power-on (``GA``; ``GAS``/``GAR`` write the EEPROM at once)."""
 
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", strict=True)
 
     enabled: bool
 
