@@ -9,6 +9,12 @@ the handler added with ``audit_note(request, ...)``: ``bytes_sent`` (the wire fr
 ``AuditLog`` keeps the newest entries in memory (a bounded ring, for ``GET /api/v1/audit``) and
 appends them to its file from a writer task, a batch at a time in a worker thread, so a slow
 disk never blocks the event loop; ``await close()`` writes everything still queued.
+
+The file holds every entry whatever a client sends: a line that UTF-8 cannot hold (a lone
+surrogate) is written with JSON escapes instead. A write that fails keeps its lines for the
+next write, is logged, turns ``healthy`` false (``/readyz`` answers 503) and is counted
+(``rc233_audit_write_errors_total`` in ``/metrics``) until a write succeeds again. Tokens in
+the query are masked (``gateway.api.redaction``).
 """
 
 from __future__ import annotations
@@ -28,8 +34,10 @@ from fastapi import APIRouter, Depends, FastAPI, Query, Request
 from pydantic import BaseModel, ConfigDict
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
+from gateway.api.exposition import Exposition
 from gateway.api.problems import PROBLEM_RESPONSES
-from gateway.api.security import Principal, require
+from gateway.api.redaction import redact
+from gateway.api.security import Principal, principal_of, require
 from gateway.errors import InvalidInputError
 from gateway.service.roles import Role
 
@@ -98,6 +106,28 @@ class AuditLog:
         self._writer: asyncio.Task[None] | None = None
         #: lines that could not be written (the disk failed); they stay in memory
         self.write_errors = 0
+        #: why the last write failed (None: it did not)
+        self.last_error: str | None = None
+        #: lines of failed writes, written first by the next write
+        self._unwritten: deque[str] = deque(maxlen=memory)
+
+    @property
+    def healthy(self) -> bool:
+        """False while the last write to the file failed (``/readyz`` says so)."""
+        return self.last_error is None
+
+    def exposition(self) -> str:
+        """The audit log's metrics in the Prometheus text format."""
+        out = Exposition()
+        out.family("rc233_audit_entries_total", "counter", "Audit entries recorded.")
+        out.sample("rc233_audit_entries_total", {}, self._seq)
+        out.family(
+            "rc233_audit_write_errors_total", "counter", "Audit lines a write to the file failed."
+        )
+        out.sample("rc233_audit_write_errors_total", {}, self.write_errors)
+        out.family("rc233_audit_log_ok", "gauge", "0 while the last write to the file failed.")
+        out.sample("rc233_audit_log_ok", {}, 1 if self.healthy else 0)
+        return out.text()
 
     @property
     def last_seq(self) -> int:
@@ -110,7 +140,7 @@ class AuditLog:
         stored = {"seq": self._seq, **_plain(entry)}
         self._ring.append(stored)
         if self.path is not None:
-            self._queue_line(json.dumps(stored, ensure_ascii=False, separators=(",", ":")))
+            self._queue_line(_line(stored))
         return stored
 
     def entries(
@@ -157,12 +187,18 @@ class AuditLog:
 
     def _write(self, lines: list[str]) -> None:
         assert self.path is not None
+        waiting = [*self._unwritten, *lines]
         try:
             with self.path.open("a", encoding="utf-8") as file:
-                file.write("".join(line + "\n" for line in lines))
-        except OSError:
+                file.write("".join(line + "\n" for line in waiting))
+        except Exception as exc:  # whatever it is, the writer lives and the lines are kept
             self.write_errors += len(lines)
+            self.last_error = f"{self.path}: {exc}"
+            self._unwritten.extend(lines)
             log.exception("audit log %s: %d entries not written", self.path, len(lines))
+            return
+        self._unwritten.clear()
+        self.last_error = None
 
     async def flush(self) -> None:
         """Wait until every entry recorded so far is in the file."""
@@ -178,6 +214,17 @@ class AuditLog:
                 await self._writer
             self._writer = None
         self._pending = None
+
+
+def _line(entry: Mapping[str, Any]) -> str:
+    """``entry`` as one JSON line: UTF-8 text, or ASCII with escapes when UTF-8 cannot hold
+    it (a lone surrogate from a client), so that no entry is ever kept out of the file."""
+    line = json.dumps(entry, ensure_ascii=False, separators=(",", ":"))
+    try:
+        line.encode("utf-8")
+    except UnicodeEncodeError:
+        return json.dumps(entry, ensure_ascii=True, separators=(",", ":"))
+    return line
 
 
 def _client(scope: Scope) -> str | None:
@@ -249,6 +296,10 @@ class AuditMiddleware:
         status: int | None,
     ) -> None:
         principal = state.get("principal")
+        if not isinstance(principal, Principal):
+            # Answered before any route authenticated it (404, 405, a refused body): the
+            # entry still names who was refused.
+            principal = principal_of(scope)
         body, truncated = _body(raw, total)
         entry: dict[str, Any] = {
             "time": when,
@@ -257,7 +308,7 @@ class AuditMiddleware:
             "client": _client(scope),
             "method": scope["method"],
             "path": scope["path"],
-            "query": scope.get("query_string", b"").decode("latin-1"),
+            "query": redact(scope.get("query_string", b"").decode("latin-1")),
             "body": body,
             "status": status,  # None: the client went away before any response
             "duration_ms": round((time.perf_counter() - began) * 1000, 3),

@@ -26,6 +26,7 @@ handler, which re-raises to the server after answering.
 
 from __future__ import annotations
 
+import json
 import logging
 import math
 import uuid
@@ -130,13 +131,26 @@ class ApiProblem(Exception):
         self.headers = dict(headers or {})
 
 
+class _ProblemJSON(JSONResponse):
+    """JSON as Starlette writes it, or with ASCII escapes when UTF-8 cannot hold the text
+    (a lone surrogate a client sent, echoed as ``input``): a refusal never becomes a 500."""
+
+    media_type = PROBLEM_MEDIA_TYPE
+
+    def render(self, content: Any) -> bytes:
+        try:
+            return super().render(content)
+        except UnicodeEncodeError:
+            return json.dumps(content, separators=(",", ":")).encode("ascii")
+
+
 def problem_response(
     problem: Problem, request: Request | None = None, headers: Mapping[str, str] | None = None
 ) -> Response:
     """``problem`` as an ``application/problem+json`` response (``instance``: the path)."""
     if problem.instance is None and request is not None:
         problem = problem.model_copy(update={"instance": request.url.path})
-    return JSONResponse(
+    return _ProblemJSON(
         problem.model_dump(mode="json", exclude_none=True),
         status_code=problem.status,
         headers=dict(headers or {}),

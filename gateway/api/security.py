@@ -29,6 +29,7 @@ from fastapi.routing import APIRoute
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 from starlette.requests import HTTPConnection
 from starlette.routing import BaseRoute
+from starlette.types import Scope
 
 try:  # FastAPI >= 0.16x: included routers are branches, flattened by this
     from fastapi.routing import iter_route_contexts as _iter_contexts
@@ -55,6 +56,7 @@ __all__ = [
     "install_security",
     "is_loopback",
     "new_token",
+    "principal_of",
     "require",
     "route_roles",
 ]
@@ -255,6 +257,15 @@ def _bearer_of(connection: HTTPConnection) -> str | None:
     if scheme.lower() == "bearer" and credentials.strip():
         return credentials.strip()
     return None
+
+
+def principal_of(scope: Scope) -> Principal | None:
+    """Who sent the request of ``scope`` by its ``Authorization`` header (None: no or an
+    unknown token), for answers given before any route authenticated it (the audit log)."""
+    connection = HTTPConnection(scope)
+    if "app" not in scope:
+        return None
+    return _auth_of(connection).authenticate(_bearer_of(connection), _client(connection))
 
 
 def authenticate_websocket(ws: WebSocket, auth: AuthConfig | TokenBook) -> Principal | None:
