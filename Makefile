@@ -17,7 +17,7 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 run: $(STAMP)
-	$(BIN)/rc233-gateway serve --simulate --host 127.0.0.1 --port 8233
+	$(BIN)/rc233-gateway serve --simulate --no-auth --host 127.0.0.1 --port 8233
 
 lint: $(STAMP)
 	$(BIN)/ruff check gateway tests bench

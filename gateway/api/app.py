@@ -19,9 +19,11 @@ from fastapi.middleware.cors import CORSMiddleware
 from gateway.api import routes_axes, routes_controllers, routes_loops, routes_operations, ws
 from gateway.api.audit import AuditLog, install_audit
 from gateway.api.body_gate import BodyGate
+from gateway.api.hardening import HardeningMiddleware
 from gateway.api.health import install_operations
 from gateway.api.idempotency import install_idempotency
 from gateway.api.problems import install_problem_handlers
+from gateway.api.redaction import install_log_redaction
 from gateway.api.security import AuthConfig, install_security
 from gateway.service.axes import AxisService
 from gateway.service.controllers import ControllerService
@@ -57,6 +59,8 @@ def create_app(gateway: Gateway, *, auth: AuthConfig) -> FastAPI:
     leases = Leases()
     operations = Operations(gateway)
     feed = Feed(gateway.topology, gateway.state, gateway.events, gateway.config.ws)
+
+    install_log_redaction()  # no token in any log line, whoever prints it
 
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
@@ -96,6 +100,11 @@ def create_app(gateway: Gateway, *, auth: AuthConfig) -> FastAPI:
     app.add_middleware(BodyGate)
     install_audit(app, audit)
     install_operations(app, gateway)
+    security = gateway.config.security
+    closed = ([] if security.open_metrics else ["/metrics"]) + (
+        [] if security.open_docs else [app.openapi_url or "", app.docs_url or ""]
+    )
+    app.add_middleware(HardeningMiddleware, closed=closed)
     origins = list(gateway.config.security.cors_origins)
     if origins:
         app.add_middleware(

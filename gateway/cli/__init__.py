@@ -7,6 +7,7 @@ import json
 import sys
 from collections.abc import Sequence
 
+from gateway.cli.check_config import add_check_config_parser
 from gateway.cli.documents import add_document_parsers
 from gateway.cli.serve import add_serve_parser
 from gateway.errors import InvalidInputError
@@ -64,6 +65,7 @@ def build_parser() -> argparse.ArgumentParser:
     prs.set_defaults(func=_parse)
     add_sim_parser(sub)
     add_serve_parser(sub)
+    add_check_config_parser(sub)
     add_document_parsers(sub)
     return parser
 
