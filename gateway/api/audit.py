@@ -362,6 +362,12 @@ def _since(text: str | None) -> tuple[int | None, datetime | None]:
     if text is None or text == "":
         return None, None
     if text.isdigit():
+        if len(text) > 18:
+            raise InvalidInputError(
+                f"since {text[:24]}...: a sequence number has at most 18 digits",
+                field="query.since",
+                rule="a sequence number (at most 18 digits) or an ISO 8601 time",
+            )
         return int(text), None
     try:
         moment = datetime.fromisoformat(text.replace("Z", "+00:00"))
@@ -380,7 +386,8 @@ async def read_audit(
     _: Annotated[Principal, Depends(require(Role.ADMIN))],
     limit: Annotated[int, Query(ge=1, le=MEMORY)] = 100,
     since: Annotated[
-        str | None, Query(description="a seq (entries after it) or an ISO 8601 time")
+        str | None,
+        Query(max_length=64, description="a seq (entries after it) or an ISO 8601 time"),
     ] = None,
 ) -> AuditPage:
     """The audit log (admin): the newest ``limit`` entries, or the first after ``since``."""

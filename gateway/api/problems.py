@@ -168,8 +168,11 @@ def _json_safe(value: Any) -> Any:
 def _validation_problem(exc: RequestValidationError) -> Problem:
     entries: list[FieldProblem] = []
     for err in exc.errors():
-        loc = err.get("loc", ())
-        field = ".".join(str(part) for part in loc) or None
+        loc = tuple(err.get("loc", ()))
+        if err.get("type") in ("union_tag_invalid", "union_tag_not_found"):
+            # The union's tag is at fault: name it (body.command), not the whole body.
+            loc += (str(err.get("ctx", {}).get("discriminator", "")).strip("'"),)
+        field = ".".join(str(part) for part in loc if part != "") or None
         # For a missing field pydantic's input is the enclosing object: nothing to show.
         given = None if err.get("type") == "missing" else _json_safe(err.get("input"))
         entries.append(FieldProblem(field=field, rule=str(err.get("msg", "")), input=given))
@@ -221,7 +224,12 @@ def _problem_for(exc: Exception) -> tuple[Problem, dict[str, str]] | None:
         return problem, {}
     if isinstance(exc, NotFoundError):
         return Problem(
-            type=problem_type("not-found"), title="Not found", status=404, detail=str(exc)
+            type=problem_type("not-found"),
+            title="Not found",
+            status=404,
+            detail=str(exc),
+            field=exc.field,
+            rule=f"a {exc.kind} of the configuration" if exc.field else None,
         ), {}
     if isinstance(exc, ConflictError):
         slug = "lease-held" if exc.holder is not None else "conflict"

@@ -13,6 +13,7 @@ from fastapi import APIRouter, Path, Query, Request
 
 from gateway.api.ctl_deps import Admin, Service, Viewer, note_sent
 from gateway.api.problems import PROBLEM_RESPONSES
+from gateway.errors import NotFoundError
 from gateway.service.controllers import TraceSettings, TraceView
 from gateway.service.ctl_models import RawRequest
 from gateway.service.ctl_replies import CommandResponse
@@ -43,7 +44,12 @@ async def post_raw(
 ) -> CommandResponse:
     """Send command text (between body number and CR) to a controller of the loop, parsed
     through the catalog first; answered like ``/controllers/{id}/commands``."""
-    return note_sent(request, await service.raw(loop, body, holder=who.name))
+    try:
+        return note_sent(request, await service.raw(loop, body, holder=who.name))
+    except NotFoundError as exc:
+        if exc.kind == "controller":
+            exc.field = "body.controller"
+        raise
 
 
 @router.get("/loops/{loop}/trace", response_model=TraceView)
@@ -51,10 +57,17 @@ async def get_trace(
     loop: Loop,
     service: Service,
     _: Admin,
-    controller: Annotated[str | None, Query(description="only this controller")] = None,
+    controller: Annotated[
+        str | None, Query(max_length=64, description="only this controller")
+    ] = None,
 ) -> TraceView:
     """The line trace of the loop (bounded; off until switched on with PUT)."""
-    return service.trace(loop, controller)
+    try:
+        return service.trace(loop, controller)
+    except NotFoundError as exc:
+        if exc.kind == "controller":
+            exc.field = "query.controller"
+        raise
 
 
 @router.put("/loops/{loop}/trace", response_model=TraceView)

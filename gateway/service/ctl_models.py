@@ -8,9 +8,11 @@ unknown fields, so a misspelt field is a 422 naming it rather than silently igno
 from __future__ import annotations
 
 from enum import StrEnum
-from typing import Literal, Self
+from typing import Annotated, Literal, Self
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, model_validator
+
+from gateway.protocol.params import exact_int
 
 __all__ = [
     "Autostart",
@@ -40,6 +42,8 @@ __all__ = [
 ]
 
 ContactName = Literal["A", "B"]
+#: a motor number (1, 2): an integer, never ``true`` (which pydantic's Literal takes as 1)
+MotorNumber = Annotated[Literal[1, 2], BeforeValidator(exact_int)]
 
 
 class _Request(BaseModel):
@@ -75,7 +79,7 @@ class PositionWrite(_Request):
         None, ge=-8_388_608, le=16_777_215, description="pulses (signed needs EP1 or mode 1)"
     )
     current: bool = Field(False, description="store the selected motor's current position")
-    motor: Literal[1, 2] | None = Field(
+    motor: MotorNumber | None = Field(
         None, description="with current: the motor whose position is stored (selected first)"
     )
 
@@ -172,7 +176,7 @@ class ModeView(BaseModel):
 class ModeWrite(_Request):
     """Set the operating mode (``E{mode}``; admin; not while moving)."""
 
-    mode: Literal[0, 1, 2]
+    mode: Annotated[Literal[0, 1, 2], BeforeValidator(exact_int)]
 
 
 class EepromArea(StrEnum):
@@ -264,6 +268,7 @@ class RawRequest(_Request):
     """Command text for one controller of the loop, parsed through the catalog first."""
 
     controller: str = Field(
+        max_length=64,
         description="the body number on this loop ('1'), or the controller's id or name",
         examples=["1"],
     )
@@ -273,6 +278,6 @@ class RawRequest(_Request):
         description="the text between body number and CR, e.g. OH4000",
         examples=["OH4000"],
     )
-    motor: Literal[1, 2] | None = Field(
+    motor: MotorNumber | None = Field(
         None, description="select this motor first (F) for commands without a motor digit"
     )

@@ -172,3 +172,12 @@ async def test_a_declared_length_over_the_limit_is_413_at_once(api: Api):
         headers={**JSON, "Content-Length": str(10 * 1024 * 1024)},
     )
     problem_of(response, 413)
+
+
+@pytest.mark.parametrize("unit", ["pulse", "user"])
+async def test_a_huge_finite_target_is_refused_before_anything_is_read(api: Api, unit: str):
+    mark = api.mark()
+    body = b'{"position": -1e308, "unit": "' + unit.encode() + b'"}'
+    problem = problem_of(await post_raw(api, "/axes/sim.2.1/move", body), 422)
+    assert problem["field"] == "body.position"
+    assert [t for b in api.bodies for t in api.heard(b, mark) if t == "EP"] == []
