@@ -45,7 +45,12 @@ REST and WebSocket access to RORZE RC-233 controllers on RS-232C loops.
 * Motion requests answer `202` with an operation (`GET /operations/{id}`), or wait for the end
   with `?wait=true&timeout=s`. An `Idempotency-Key` header makes a retried POST return the
   first result instead of acting again.
-* Errors are `application/problem+json` (RFC 9457) naming the field and the rule.
+* Errors are `application/problem+json` (RFC 9457) naming the field and the rule. Bodies are
+  JSON (`Content-Type: application/json`, else 415) of at most 256 KiB (else 413, refused
+  before it is read); numbers are finite JSON numbers and booleans JSON booleans.
+* Every answer carries `X-Content-Type-Options: nosniff`, `Cache-Control: no-store` and
+  frame protection. `/metrics` and these docs are open unless `security.open_metrics` /
+  `security.open_docs` is false.
 * Roles: viewer (read, subscribe), operator (motion, settings, leases), admin (raw, EEPROM,
   programs, mode, framing, line trace). Bearer tokens.
 * The WebSocket `/api/v1/ws` publishes axis, controller and loop state and events; its

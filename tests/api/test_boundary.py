@@ -181,3 +181,11 @@ async def test_a_huge_finite_target_is_refused_before_anything_is_read(api: Api,
     problem = problem_of(await post_raw(api, "/axes/sim.2.1/move", body), 422)
     assert problem["field"] == "body.position"
     assert [t for b in api.bodies for t in api.heard(b, mark) if t == "EP"] == []
+
+
+async def test_the_document_lists_413_and_415_on_operations_with_a_body(api: Api):
+    paths = (await api.client.get("/openapi.json")).json()["paths"]
+    move = paths["/api/v1/axes/{id}/move"]["post"]["responses"]
+    assert PROBLEM in move["413"]["content"] and PROBLEM in move["415"]["content"]
+    assert str(BODY_LIMIT) in move["413"]["description"]
+    assert "413" not in paths["/api/v1/axes"]["get"]["responses"]
