@@ -6,7 +6,7 @@ A body is refused, with a problem naming the field and the rule, when it is:
   as soon as the bytes read pass the limit (the rest is never read);
 * not declared ``application/json`` (or ``+json``): 415 naming ``header.content-type``;
 * not UTF-8 (422 naming the byte), not JSON (422 naming line and column), nested deeper
-  than ``MAX_DEPTH`` (422, checked before parsing, so no recursion limit is ever met);
+  than ``MAX_DEPTH`` (422; far deeper, the parser's own recursion guard stops it early);
 * holding something JSON cannot mean as a number or text (422 naming the field, such as
   ``body.position``): ``NaN``, ``Infinity``, a number too large for a double (``1e400``), an
   integer of more than ``MAX_DIGITS`` digits, a lone UTF-16 surrogate (``"\\ud800"``).
@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Any
@@ -75,56 +76,46 @@ class _NotFinite:
         self.text = text
 
 
-def _constant(text: str) -> _NotFinite:
-    return _NotFinite(text)
+class _Numbers:
+    """The parser's number hooks for one body: what JSON cannot mean becomes a ``_NotFinite``,
+    and ``found`` says whether any did (then the body is walked to name its field)."""
+
+    def __init__(self) -> None:
+        self.found = False
+
+    def _not_finite(self, text: str) -> _NotFinite:
+        self.found = True
+        return _NotFinite(text)
+
+    def constant(self, text: str) -> _NotFinite:
+        return self._not_finite(text)
+
+    def integer(self, text: str) -> int | _NotFinite:
+        digits = len(text.lstrip("-"))
+        return self._not_finite(text[:24] + "...") if digits > MAX_DIGITS else int(text)
+
+    def decimal(self, text: str) -> float | _NotFinite:
+        value = float(text)
+        return value if math.isfinite(value) else self._not_finite(text[:24])
 
 
-def _integer(text: str) -> int | _NotFinite:
-    digits = len(text.lstrip("-"))
-    return _NotFinite(text[:24] + "...") if digits > MAX_DIGITS else int(text)
+#: an escaped UTF-16 surrogate in JSON text: the only way a body's text can hold one
+_SURROGATE_ESCAPE = re.compile(r"\\u[dD][89a-fA-F]")
 
 
-def _float(text: str) -> float | _NotFinite:
-    value = float(text)
-    return value if math.isfinite(value) else _NotFinite(text[:24])
-
-
-def _depth(text: str) -> int:
-    """The deepest nesting of arrays and objects in ``text`` (brackets inside strings skipped)."""
-    if text.count("[") + text.count("{") <= MAX_DEPTH:
-        return 0  # too few brackets to be deep: no need to look at every character
-    deepest = depth = 0
-    in_string = escaped = False
-    for char in text:
-        if in_string:
-            if escaped:
-                escaped = False
-            elif char == "\\":
-                escaped = True
-            elif char == '"':
-                in_string = False
-        elif char == '"':
-            in_string = True
-        elif char in "[{":
-            depth += 1
-            deepest = max(deepest, depth)
-        elif char in "]}":
-            depth -= 1
-    return deepest
-
-
-def _walk(value: Any, where: str) -> Iterator[tuple[str, Any]]:
-    """Every key and value inside ``value`` with its field (``body.kinds.0``)."""
-    stack: list[tuple[str, Any]] = [(where, value)]
+def _walk(value: Any, where: str) -> Iterator[tuple[str, Any, int]]:
+    """Every key and value inside ``value`` with its field (``body.kinds.0``) and the depth of
+    arrays and objects it is in (iterative: no recursion however deep the value)."""
+    stack: list[tuple[str, Any, int]] = [(where, value, 0)]
     while stack:
-        path, item = stack.pop()
-        yield path, item
+        path, item, depth = stack.pop()
+        yield path, item, depth
         if isinstance(item, dict):
             for key, inner in item.items():
-                yield f"{path}.{key}", key
-                stack.append((f"{path}.{key}", inner))
+                yield f"{path}.{key}", key, depth + 1
+                stack.append((f"{path}.{key}", inner, depth + 1))
         elif isinstance(item, list):
-            stack.extend((f"{path}.{i}", inner) for i, inner in enumerate(item))
+            stack.extend((f"{path}.{i}", inner, depth + 1) for i, inner in enumerate(item))
 
 
 def _is_text(value: str) -> bool:
@@ -141,12 +132,19 @@ def check_json(raw: bytes) -> Refusal | None:
         text = raw.decode("utf-8")
     except UnicodeDecodeError as exc:
         return Refusal(422, "body", "UTF-8 text", f"byte {exc.start} is not UTF-8")
-    if _depth(text) > MAX_DEPTH:
-        return Refusal(
-            422, "body", f"JSON nested at most {MAX_DEPTH} deep", "the body is nested deeper"
-        )
+    too_deep = Refusal(
+        422, "body", f"JSON nested at most {MAX_DEPTH} deep", "the body is nested deeper"
+    )
+    numbers = _Numbers()
     try:
-        value = json.loads(text, parse_constant=_constant, parse_int=_integer, parse_float=_float)
+        value = json.loads(
+            text,
+            parse_constant=numbers.constant,
+            parse_int=numbers.integer,
+            parse_float=numbers.decimal,
+        )
+    except RecursionError:  # the parser's own guard, far deeper than MAX_DEPTH
+        return too_deep
     except json.JSONDecodeError as exc:
         return Refusal(
             422,
@@ -154,7 +152,13 @@ def check_json(raw: bytes) -> Refusal | None:
             "one JSON value (RFC 8259)",
             f"{exc.msg} at line {exc.lineno} column {exc.colno}",
         )
-    for field, item in _walk(value, "body"):
+    # Walked only when something may be wrong: a wide body of plain values costs nothing more.
+    may_be_deep = text.count("[") + text.count("{") > MAX_DEPTH
+    if not (numbers.found or may_be_deep or _SURROGATE_ESCAPE.search(text)):
+        return None
+    for field, item, depth in _walk(value, "body"):
+        if depth >= MAX_DEPTH and isinstance(item, dict | list):
+            return too_deep
         if isinstance(item, _NotFinite):
             return Refusal(
                 422,

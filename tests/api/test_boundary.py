@@ -14,7 +14,7 @@ from typing import Any
 import httpx
 import pytest
 
-from gateway.api.body_gate import BODY_LIMIT, MAX_DEPTH
+from gateway.api.body_gate import BODY_LIMIT, MAX_DEPTH, check_json
 from gateway.protocol.registry import parse
 from tests.api.sim_app import Api, running_app
 
@@ -189,3 +189,16 @@ async def test_the_document_lists_413_and_415_on_operations_with_a_body(api: Api
     assert PROBLEM in move["413"]["content"] and PROBLEM in move["415"]["content"]
     assert str(BODY_LIMIT) in move["413"]["description"]
     assert "413" not in paths["/api/v1/axes"]["get"]["responses"]
+
+
+@pytest.mark.parametrize(
+    ("depth", "refused"), [(MAX_DEPTH, False), (MAX_DEPTH + 1, True), (200_000, True)]
+)
+def test_nesting_is_refused_just_past_the_limit_and_far_past_it(depth: int, refused: bool):
+    refusal = check_json(b"[" * depth + b"]" * depth)
+    assert (refusal is not None) is refused
+    assert refusal is None or refusal.field == "body"
+
+
+def test_a_surrogate_pair_is_text_and_an_escaped_backslash_is_not_a_surrogate():
+    assert check_json(b'{"note": "\\ud83d\\ude00", "path": "C:\\\\ud800"}') is None
