@@ -46,6 +46,7 @@ def test_the_deploy_example_ships_no_working_token_and_says_what_it_holds(
     assert (x.name, x.unit, x.units_per_pulse, x.soft_min, x.soft_max) == (
         "x", "mm", 0.01, -5.0, 900.0)  # fmt: skip
     assert [t.role for t in config.security.tokens] == [Role.OPERATOR, Role.VIEWER]
+    assert config.security.open_metrics and config.security.open_docs
 
 
 def test_defaults_of_a_minimal_file() -> None:
