@@ -53,7 +53,7 @@ $(NODE_STAMP): $(NODE_DIR)/package.json $(NODE_DIR)/package-lock.json | system-t
 
 run: $(RUNTIME)
 	@echo "dashboard: http://127.0.0.1:8233/   API docs: http://127.0.0.1:8233/api/v1/docs"
-	$(BIN)/rc233-gateway serve --simulate --host 127.0.0.1 --port 8233
+	$(BIN)/rc233-gateway serve --simulate --no-auth --host 127.0.0.1 --port 8233
 
 lint: $(STAMP)
 	$(BIN)/ruff check gateway tests bench examples

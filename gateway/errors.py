@@ -90,11 +90,15 @@ class ServiceError(GatewayError):
 class NotFoundError(ServiceError):
     """No resource of ``kind`` ('loop', 'controller', 'axis', 'operation') is called ``ident``."""
 
-    def __init__(self, kind: str, ident: str, *, known: tuple[str, ...] = ()) -> None:
+    def __init__(
+        self, kind: str, ident: str, *, known: tuple[str, ...] = (), field: str | None = None
+    ) -> None:
         hint = f"; known: {', '.join(known[:20])}" if known else ""
         super().__init__(f"no {kind} {ident!r}{hint}")
         self.kind = kind
         self.ident = ident
+        #: the request field that named it (``query.axis``), when not the path
+        self.field = field
 
 
 class ConflictError(ServiceError):

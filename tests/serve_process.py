@@ -45,7 +45,7 @@ async def serve(
     """Start ``rc233-gateway serve`` with ``options`` (default ``--simulate`` at
     ``TIME_SCALE``) on a free port; after the block SIGINT must end it with exit code 0."""
     port = free_port()
-    argv = options or ("--simulate", "--time-scale", str(TIME_SCALE))
+    argv = options or ("--simulate", "--no-auth", "--time-scale", str(TIME_SCALE))
     env = {**os.environ, "XDG_DATA_HOME": str(tmp_path), **(env or {})}
     if "--simulate" in argv and "--eeprom-dir" not in argv:
         argv = (*argv, "--eeprom-dir", str(tmp_path / "eeprom"))

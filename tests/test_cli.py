@@ -79,15 +79,15 @@ def _free_port() -> int:
 
 
 async def test_make_run_serves_the_api_on_a_simulated_loop(tmp_path: Path) -> None:
-    """`make run` is `serve --simulate` on 127.0.0.1:8233 (here on a free port): no file,
-    no token on loopback, the three simulated controllers' axes listed by name."""
+    """`make run` is `serve --simulate --no-auth` on 127.0.0.1:8233 (here on a free port): no
+    file, no token on loopback, the three simulated controllers' axes listed by name."""
     makefile = (Path(__file__).parents[1] / "Makefile").read_text()
-    assert "rc233-gateway serve --simulate --host 127.0.0.1 --port 8233" in makefile
+    assert "rc233-gateway serve --simulate --no-auth --host 127.0.0.1 --port 8233" in makefile
     env = {**os.environ, "XDG_DATA_HOME": str(tmp_path)}  # keep the EEPROM files out of $HOME
     gateway = Path(sys.executable).parent / "rc233-gateway"
     port = _free_port()
     process = await asyncio.create_subprocess_exec(
-        str(gateway), "serve", "--simulate", "--port", str(port),
+        str(gateway), "serve", "--simulate", "--no-auth", "--port", str(port),
         stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.PIPE, env=env,
     )  # fmt: skip
     assert process.stderr is not None
@@ -112,10 +112,38 @@ def test_serve_refuses_an_open_api_off_loopback(capsys: pytest.CaptureFixture[st
     # --simulate off loopback without tokens: auth stays on, and nobody could use it.
     assert main(["serve", "--simulate", "--host", "0.0.0.0"]) == 2
     err = capsys.readouterr().err
-    assert "--host 0.0.0.0: no API tokens are configured, so nobody could use the API" in err
+    assert "--host 0.0.0.0: no API token is configured, so nobody could use the API" in err
     assert main(["serve", "--simulate", "--host", "0.0.0.0", "--no-auth"]) == 2
     err = capsys.readouterr().err
     assert "--no-auth is only allowed when bound to loopback, not '0.0.0.0'" in err
+
+
+def test_serve_runs_open_only_with_no_auth(capsys: pytest.CaptureFixture[str]) -> None:
+    # One rule for a file and for --simulate: no token and no --no-auth is refused, on
+    # loopback too, before anything starts.
+    assert main(["serve", "--simulate"]) == 2
+    err = capsys.readouterr().err
+    assert "security.tokens: no API token is configured" in err
+    assert "serve --no-auth" in err
+    assert main(["serve"]) == 2
+    assert "give --config FILE, --simulate, or both" in capsys.readouterr().err
+
+
+def test_serve_help_says_the_one_auth_rule(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit):
+        main(["serve", "--help"])
+    out = " ".join(capsys.readouterr().out.replace("`", "").split())
+    assert (
+        "every request needs a token of the configuration unless the API is started with "
+        "--no-auth, which is accepted only on loopback" in out
+    )
+    readme = " ".join((Path(__file__).parents[1] / "README.md").read_text().split())
+    assert (
+        "every request needs a token of the configuration unless the API is started with "
+        "`--no-auth`, which is accepted only on loopback" in readme
+    )
+    example = (Path(__file__).parents[1] / "deploy" / "cell.example.toml").read_text()
+    assert "Every request needs a token; the API runs open only when `serve --no-auth`" in example
 
 
 def test_serve_stops_on_a_bad_configuration(

@@ -28,11 +28,14 @@ from gateway.api import (
     ws,
 )
 from gateway.api.audit import AuditLog, install_audit
+from gateway.api.body_gate import BodyGate
 from gateway.api.dashboard import install_dashboard
+from gateway.api.hardening import HardeningMiddleware
 from gateway.api.health import install_operations
 from gateway.api.idempotency import install_idempotency
 from gateway.api.openapi_docs import install_openapi_docs, operation_id
 from gateway.api.problems import install_problem_handlers
+from gateway.api.redaction import install_log_redaction
 from gateway.api.security import AuthConfig, install_security
 from gateway.service.axes import AxisService
 from gateway.service.controllers import ControllerService
@@ -55,7 +58,12 @@ REST and WebSocket access to RORZE RC-233 controllers on RS-232C loops.
 * Motion requests answer `202` with an operation (`GET /operations/{id}`), or wait for the end
   with `?wait=true&timeout=s`. An `Idempotency-Key` header makes a retried POST return the
   first result instead of acting again.
-* Errors are `application/problem+json` (RFC 9457) naming the field and the rule.
+* Errors are `application/problem+json` (RFC 9457) naming the field and the rule. Bodies are
+  JSON (`Content-Type: application/json`, else 415) of at most 256 KiB (else 413, refused
+  before it is read); numbers are finite JSON numbers and booleans JSON booleans.
+* Every answer carries `X-Content-Type-Options: nosniff`, `Cache-Control: no-store` and
+  frame protection. `/metrics` and these docs are open unless `security.open_metrics` /
+  `security.open_docs` is false.
 * Roles: viewer (read, subscribe), operator (motion, settings, leases), admin (raw, EEPROM,
   programs, mode, framing, line trace). Bearer tokens.
 * The WebSocket `/api/v1/ws` publishes axis, controller and loop state and events; its
@@ -69,6 +77,8 @@ def create_app(gateway: Gateway, *, auth: AuthConfig) -> FastAPI:
     leases = Leases()
     operations = Operations(gateway)
     feed = Feed(gateway.topology, gateway.state, gateway.events, gateway.config.ws)
+
+    install_log_redaction()  # no token in any log line, whoever prints it
 
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
@@ -104,14 +114,21 @@ def create_app(gateway: Gateway, *, auth: AuthConfig) -> FastAPI:
     ws.install_ws(app, feed)
     install_dashboard(app, API_PREFIX)
     # Middleware added later wraps what was added before: the problem handlers innermost,
-    # then security, idempotency, audit, metrics, and CORS outermost so that error
-    # responses carry the CORS headers too.
+    # then security, idempotency, the body gate (inside the audit, which records what it
+    # refuses), audit, metrics, and CORS outermost so that error responses carry the CORS
+    # headers too.
     install_problem_handlers(app)
     install_security(app, auth)
     install_idempotency(app)
+    app.add_middleware(BodyGate)
     install_audit(app, audit)
     install_operations(app, gateway)
     install_openapi_docs(app)
+    security = gateway.config.security
+    closed = ([] if security.open_metrics else ["/metrics"]) + (
+        [] if security.open_docs else [app.openapi_url or "", f"{API_PREFIX}/docs"]
+    )
+    app.add_middleware(HardeningMiddleware, closed=closed)
     origins = list(gateway.config.security.cors_origins)
     if origins:
         app.add_middleware(

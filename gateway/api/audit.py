@@ -6,30 +6,29 @@ query, request body (JSON, its first 4 KiB as text when longer), status, duratio
 the handler added with ``audit_note(request, ...)``: ``bytes_sent`` (the wire frames),
 ``result``, ``position_before``, ``position_after``, ``operation``.
 
-``AuditLog`` keeps the newest entries in memory (a bounded ring, for ``GET /api/v1/audit``) and
-appends them to its file from a writer task, a batch at a time in a worker thread, so a slow
-disk never blocks the event loop; ``await close()`` writes everything still queued.
+``AuditLog`` (gateway/api/audit_log.py) keeps the entries: the newest in memory, every one
+in its JSON-lines file. An answer given before any route authenticated the request names the
+principal of its ``Authorization`` header; tokens in the query are masked
+(``gateway.api.redaction``).
 """
 
 from __future__ import annotations
 
-import asyncio
-import contextlib
 import json
 import logging
 import time
-from collections import deque
-from collections.abc import Iterable, Mapping
+from collections.abc import Mapping
 from datetime import UTC, datetime
-from pathlib import Path
 from typing import Annotated, Any
 
 from fastapi import APIRouter, Depends, FastAPI, Query, Request
 from pydantic import BaseModel, ConfigDict, Field
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
+from gateway.api.audit_log import MEMORY, AuditLog
 from gateway.api.problems import PROBLEM_RESPONSES
-from gateway.api.security import Principal, require
+from gateway.api.redaction import redact
+from gateway.api.security import Principal, principal_of, require
 from gateway.errors import InvalidInputError
 from gateway.service.roles import Role
 
@@ -49,8 +48,6 @@ log = logging.getLogger("gateway.audit")
 MUTATING_METHODS = frozenset({"POST", "PUT", "PATCH", "DELETE"})
 #: request bodies longer than this are recorded as their first bytes, as text
 BODY_LIMIT = 4096
-#: entries kept in memory for ``GET /api/v1/audit``
-MEMORY = 10_000
 #: keys the middleware writes; a handler's note never overwrites them
 _CORE = frozenset(
     {"seq", "time", "token", "role", "client", "method", "path", "query", "body", "status"}
@@ -62,21 +59,6 @@ def utc_now() -> str:
     return datetime.now(UTC).isoformat(timespec="milliseconds").replace("+00:00", "Z")
 
 
-def _plain(value: Any) -> Any:
-    """``value`` made JSON-safe: bytes (wire frames) as Latin-1 text, tuples as lists."""
-    if isinstance(value, bytes | bytearray):
-        return bytes(value).decode("latin-1")
-    if isinstance(value, Mapping):
-        return {str(k): _plain(v) for k, v in value.items()}
-    if isinstance(value, list | tuple | set | frozenset):
-        return [_plain(v) for v in value]
-    if isinstance(value, BaseModel):
-        return value.model_dump(mode="json")
-    if value is None or isinstance(value, str | int | float | bool):
-        return value
-    return str(value)
-
-
 def audit_note(request: Request, **fields: Any) -> None:
     """Add ``fields`` to the audit entry of ``request`` (``bytes_sent=[b"$1M1..."]``,
     ``result=...``, ``position_before=...``, ``position_after=...``, ``operation=...``)."""
@@ -85,99 +67,6 @@ def audit_note(request: Request, **fields: Any) -> None:
         note = {}
         request.state.audit = note
     note.update(fields)
-
-
-class AuditLog:
-    """The newest entries in memory, every entry appended to ``path`` (None: memory only)."""
-
-    def __init__(self, path: Path | None = None, *, memory: int = MEMORY) -> None:
-        self.path = path
-        self._ring: deque[dict[str, Any]] = deque(maxlen=memory)
-        self._seq = 0
-        self._pending: asyncio.Queue[str] | None = None
-        self._writer: asyncio.Task[None] | None = None
-        #: lines that could not be written (the disk failed); they stay in memory
-        self.write_errors = 0
-
-    @property
-    def last_seq(self) -> int:
-        """The number of the newest entry (0: none yet)."""
-        return self._seq
-
-    def record(self, entry: Mapping[str, Any]) -> dict[str, Any]:
-        """Number ``entry``, keep it, queue it for the file; the stored entry."""
-        self._seq += 1
-        stored = {"seq": self._seq, **_plain(entry)}
-        self._ring.append(stored)
-        if self.path is not None:
-            self._queue_line(json.dumps(stored, ensure_ascii=False, separators=(",", ":")))
-        return stored
-
-    def entries(
-        self, *, limit: int = 100, since: int | None = None, after: datetime | None = None
-    ) -> list[dict[str, Any]]:
-        """Entries oldest first: the first ``limit`` after ``since`` (a seq) or ``after`` (a
-        time) when given, else the newest ``limit``."""
-        selected: Iterable[dict[str, Any]] = self._ring
-        if since is not None:
-            selected = (e for e in selected if e["seq"] > since)
-        if after is not None:
-            stamp = after.astimezone(UTC).isoformat(timespec="milliseconds")
-            stamp = stamp.replace("+00:00", "Z")
-            selected = (e for e in selected if e["time"] > stamp)
-        found = list(selected)
-        if since is None and after is None:
-            return found[-limit:]
-        return found[:limit]
-
-    # ------------------------------------------------------------------ the file
-
-    def _queue_line(self, line: str) -> None:
-        try:
-            loop = asyncio.get_running_loop()
-        except RuntimeError:  # no event loop (a script): write now
-            self._write([line])
-            return
-        if self._pending is None:
-            self._pending = asyncio.Queue()
-        self._pending.put_nowait(line)
-        if self._writer is None or self._writer.done():
-            self._writer = loop.create_task(self._write_forever(self._pending), name="audit")
-
-    async def _write_forever(self, pending: asyncio.Queue[str]) -> None:
-        while True:
-            batch = [await pending.get()]
-            while not pending.empty() and len(batch) < 1000:
-                batch.append(pending.get_nowait())
-            try:
-                await asyncio.to_thread(self._write, batch)
-            finally:
-                for _ in batch:
-                    pending.task_done()
-
-    def _write(self, lines: list[str]) -> None:
-        assert self.path is not None
-        try:
-            with self.path.open("a", encoding="utf-8") as file:
-                file.write("".join(line + "\n" for line in lines))
-        except OSError:
-            self.write_errors += len(lines)
-            log.exception("audit log %s: %d entries not written", self.path, len(lines))
-
-    async def flush(self) -> None:
-        """Wait until every entry recorded so far is in the file."""
-        if self._pending is not None and self._writer is not None and not self._writer.done():
-            await self._pending.join()
-
-    async def close(self) -> None:
-        """Write what is queued, then stop the writer (graceful shutdown)."""
-        await self.flush()
-        if self._writer is not None:
-            self._writer.cancel()
-            with contextlib.suppress(asyncio.CancelledError):
-                await self._writer
-            self._writer = None
-        self._pending = None
 
 
 def _client(scope: Scope) -> str | None:
@@ -249,6 +138,10 @@ class AuditMiddleware:
         status: int | None,
     ) -> None:
         principal = state.get("principal")
+        if not isinstance(principal, Principal):
+            # Answered before any route authenticated it (404, 405, a refused body): the
+            # entry still names who was refused.
+            principal = principal_of(scope)
         body, truncated = _body(raw, total)
         entry: dict[str, Any] = {
             "time": when,
@@ -257,7 +150,7 @@ class AuditMiddleware:
             "client": _client(scope),
             "method": scope["method"],
             "path": scope["path"],
-            "query": scope.get("query_string", b"").decode("latin-1"),
+            "query": redact(scope.get("query_string", b"").decode("latin-1")),
             "body": body,
             "status": status,  # None: the client went away before any response
             "duration_ms": round((time.perf_counter() - began) * 1000, 3),
@@ -311,6 +204,12 @@ def _since(text: str | None) -> tuple[int | None, datetime | None]:
     if text is None or text == "":
         return None, None
     if text.isdigit():
+        if len(text) > 18:
+            raise InvalidInputError(
+                f"since {text[:24]}...: a sequence number has at most 18 digits",
+                field="query.since",
+                rule="a sequence number (at most 18 digits) or an ISO 8601 time",
+            )
         return int(text), None
     try:
         moment = datetime.fromisoformat(text.replace("Z", "+00:00"))
@@ -329,7 +228,8 @@ async def read_audit(
     _: Annotated[Principal, Depends(require(Role.ADMIN))],
     limit: Annotated[int, Query(ge=1, le=MEMORY)] = 100,
     since: Annotated[
-        str | None, Query(description="a seq (entries after it) or an ISO 8601 time")
+        str | None,
+        Query(max_length=64, description="a seq (entries after it) or an ISO 8601 time"),
     ] = None,
 ) -> AuditPage:
     """The audit log (admin): the newest ``limit`` entries, or the first after ``since``."""

@@ -1,7 +1,8 @@
 """The operations routes at the root, open without a token (issue 5, "Operations").
 
-``/healthz``: the process answers (200). ``/readyz``: 200 when every loop is up, else a 503
-problem naming the loops that are down (``loops_down``). ``/metrics``: Prometheus text.
+``/healthz``: the process answers (200). ``/readyz``: 200 when every loop is up and the audit
+log's file takes its lines, else a 503 problem naming the loops that are down (``loops_down``)
+and the audit log's failure. ``/metrics``: Prometheus text (the audit log's series too).
 ``install_operations(app, gateway)`` sets them up with the HTTP metrics middleware.
 """
 
@@ -70,14 +71,18 @@ async def readyz(request: Request) -> Any:
             for name, loop in sorted(gateway.schedulers.items())
             if loop.state is not LinkState.UP
         ]
-    if gateway is not None and gateway.ready() and not down:
+    audit = getattr(request.app.state, "audit", None)
+    audit_error = getattr(audit, "last_error", None)
+    if gateway is not None and gateway.ready() and not down and audit_error is None:
         return Readiness(loops=states)
     causes = []
     if gateway is not None:
         for name in down:
             cause = getattr(gateway.schedulers[name], "cause", "")
             causes.append(f"{name} ({states[name]}{': ' + cause if cause else ''})")
-    detail = "not ready; loops down: " + (", ".join(causes) or ", ".join(down) or "none named")
+    detail = "not ready; loops down: " + (", ".join(causes) or ", ".join(down) or "none")
+    if audit_error:
+        detail += f"; the audit log cannot be written ({audit_error})"
     problem = Problem(
         type=problem_type("not-ready"),
         title="Not ready",
@@ -95,7 +100,11 @@ async def readyz(request: Request) -> Any:
 )
 async def metrics(request: Request) -> Response:
     """Prometheus text exposition format 0.0.4."""
-    return Response(_metrics(request).render(), media_type=CONTENT_TYPE)
+    text = _metrics(request).render()
+    audit = getattr(request.app.state, "audit", None)
+    if audit is not None:
+        text += audit.exposition()
+    return Response(text, media_type=CONTENT_TYPE)
 
 
 @router.head("/metrics", include_in_schema=False)

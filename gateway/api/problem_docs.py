@@ -1,7 +1,8 @@
 """The OpenAPI side of the problems: every error response documented as ``Problem``.
 
 FastAPI documents its own 422 as JSON ``HTTPValidationError``, which the app never sends
-(``problems.install_problem_handlers`` answers ``application/problem+json``). Schemathesis
+(``problems.install_problem_handlers`` answers ``application/problem+json``); an operation
+with a body also answers 413 and 415 (the body gate). Schemathesis
 checks the content type and schema of every response against the document, so the document
 has to say what the app does: ``install_problem_docs(app)`` wraps ``app.openapi``.
 """
@@ -15,6 +16,7 @@ from typing import Any
 
 from fastapi import FastAPI
 
+from gateway.api.body_gate import BODY_LIMIT
 from gateway.api.problems import PROBLEM_MEDIA_TYPE, Problem
 from gateway.api.security import route_roles
 
@@ -22,6 +24,11 @@ __all__ = ["document_problems", "install_problem_docs"]
 
 _PROBLEM_REF = {"$ref": "#/components/schemas/Problem"}
 _AUTH_STATUSES = ("401", "403")
+#: what the body gate answers for an operation that takes a body (gateway.api.body_gate)
+_BODY_STATUSES = {
+    "413": f"The body is over {BODY_LIMIT} bytes (refused before it is read)",
+    "415": "The body is not declared application/json",
+}
 
 
 def _is_error_status(status: str) -> bool:
@@ -47,6 +54,9 @@ def document_problems(schema: dict[str, Any], secured: Mapping[tuple[str, str], 
             if secured.get((path, method.upper())):
                 for status in _AUTH_STATUSES:
                     responses.setdefault(status, {"description": HTTPStatus(int(status)).phrase})
+            if "requestBody" in operation:
+                for status, text in _BODY_STATUSES.items():
+                    responses.setdefault(status, {"description": text})
             for status, response in responses.items():
                 if _is_error_status(str(status)) and isinstance(response, dict):
                     response["content"] = {k: dict(v) for k, v in content.items()}

@@ -26,6 +26,7 @@ handler, which re-raises to the server after answering.
 
 from __future__ import annotations
 
+import json
 import logging
 import math
 import uuid
@@ -133,13 +134,26 @@ class ApiProblem(Exception):
         self.headers = dict(headers or {})
 
 
+class _ProblemJSON(JSONResponse):
+    """JSON as Starlette writes it, or with ASCII escapes when UTF-8 cannot hold the text
+    (a lone surrogate a client sent, echoed as ``input``): a refusal never becomes a 500."""
+
+    media_type = PROBLEM_MEDIA_TYPE
+
+    def render(self, content: Any) -> bytes:
+        try:
+            return super().render(content)
+        except UnicodeEncodeError:
+            return json.dumps(content, separators=(",", ":")).encode("ascii")
+
+
 def problem_response(
     problem: Problem, request: Request | None = None, headers: Mapping[str, str] | None = None
 ) -> Response:
     """``problem`` as an ``application/problem+json`` response (``instance``: the path)."""
     if problem.instance is None and request is not None:
         problem = problem.model_copy(update={"instance": request.url.path})
-    return JSONResponse(
+    return _ProblemJSON(
         problem.model_dump(mode="json", exclude_none=True),
         status_code=problem.status,
         headers=dict(headers or {}),
@@ -157,8 +171,11 @@ def _json_safe(value: Any) -> Any:
 def _validation_problem(exc: RequestValidationError) -> Problem:
     entries: list[FieldProblem] = []
     for err in exc.errors():
-        loc = err.get("loc", ())
-        field = ".".join(str(part) for part in loc) or None
+        loc = tuple(err.get("loc", ()))
+        if err.get("type") in ("union_tag_invalid", "union_tag_not_found"):
+            # The union's tag is at fault: name it (body.command), not the whole body.
+            loc += (str(err.get("ctx", {}).get("discriminator", "")).strip("'"),)
+        field = ".".join(str(part) for part in loc if part != "") or None
         # For a missing field pydantic's input is the enclosing object: nothing to show.
         given = None if err.get("type") == "missing" else _json_safe(err.get("input"))
         entries.append(FieldProblem(field=field, rule=str(err.get("msg", "")), input=given))
@@ -210,7 +227,12 @@ def _problem_for(exc: Exception) -> tuple[Problem, dict[str, str]] | None:
         return problem, {}
     if isinstance(exc, NotFoundError):
         return Problem(
-            type=problem_type("not-found"), title="Not found", status=404, detail=str(exc)
+            type=problem_type("not-found"),
+            title="Not found",
+            status=404,
+            detail=str(exc),
+            field=exc.field,
+            rule=f"a {exc.kind} of the configuration" if exc.field else None,
         ), {}
     if isinstance(exc, ConflictError):
         slug = "lease-held" if exc.holder is not None else "conflict"

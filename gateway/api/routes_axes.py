@@ -50,7 +50,12 @@ Operator = Annotated[Principal, Depends(require(Role.OPERATOR))]
 Wait = Annotated[bool, Query(description="answer when the motion has ended")]
 Timeout = Annotated[
     float,
-    Query(gt=0, le=3600, description="seconds to wait with wait=true (then 202: still running)"),
+    Query(
+        gt=0,
+        le=3600,
+        allow_inf_nan=False,
+        description="seconds to wait with wait=true (then 202: still running)",
+    ),
 ]
 
 

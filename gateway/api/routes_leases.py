@@ -25,9 +25,11 @@ __all__ = ["LeaseRequest", "LeaseView", "lease_routes"]
 class LeaseRequest(BaseModel):
     """How long to hold the lease."""
 
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", strict=True)
 
-    ttl: float = Field(60.0, gt=0, le=MAX_TTL, description="seconds; renew before it ends")
+    ttl: float = Field(
+        60.0, gt=0, le=MAX_TTL, allow_inf_nan=False, description="seconds; renew before it ends"
+    )
 
 
 class LeaseView(BaseModel):

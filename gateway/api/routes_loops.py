@@ -15,6 +15,7 @@ from gateway.api.audit import audit_note
 from gateway.api.axis_requests import StopRequest
 from gateway.api.ctl_deps import Admin, Operator, Service, Stops, Viewer, note_sent
 from gateway.api.problems import PROBLEM_RESPONSES
+from gateway.errors import NotFoundError
 from gateway.service.controllers import TraceSettings, TraceView
 from gateway.service.ctl_models import RawRequest
 from gateway.service.ctl_replies import CommandResponse
@@ -64,7 +65,12 @@ async def post_raw(
     """Send command text (between body number and CR) to a controller of the loop, parsed
     through the catalog first; answered like ``/controllers/{id}/commands``, with the same
     soft-limit checks of motion commands (field ``text``)."""
-    return note_sent(request, await service.raw(loop, body, holder=who.name))
+    try:
+        return note_sent(request, await service.raw(loop, body, holder=who.name))
+    except NotFoundError as exc:
+        if exc.kind == "controller":
+            exc.field = "body.controller"
+        raise
 
 
 @router.get("/loops/{loop}/trace", response_model=TraceView)
@@ -72,10 +78,17 @@ async def get_trace(
     loop: Loop,
     service: Service,
     _: Admin,
-    controller: Annotated[str | None, Query(description="only this controller")] = None,
+    controller: Annotated[
+        str | None, Query(max_length=64, description="only this controller")
+    ] = None,
 ) -> TraceView:
     """The line trace of the loop (bounded; off until switched on with PUT)."""
-    return service.trace(loop, controller)
+    try:
+        return service.trace(loop, controller)
+    except NotFoundError as exc:
+        if exc.kind == "controller":
+            exc.field = "query.controller"
+        raise
 
 
 @router.put("/loops/{loop}/trace", response_model=TraceView)

@@ -13,6 +13,7 @@ from fastapi import APIRouter, Depends, Path, Query, Request
 
 from gateway.api.problems import PROBLEM_RESPONSES
 from gateway.api.security import Principal, require
+from gateway.errors import NotFoundError
 from gateway.service.operation_types import OperationState, OperationView
 from gateway.service.operations import Operations
 from gateway.service.roles import Role
@@ -46,12 +47,16 @@ async def get_operation(
 async def list_operations(
     operations: Ops,
     _: Viewer,
-    axis: Annotated[str | None, Query(description="axis id or name")] = None,
+    axis: Annotated[str | None, Query(max_length=64, description="axis id or name")] = None,
     state: Annotated[OperationState | None, Query()] = None,
     limit: Annotated[int, Query(ge=1, le=1000)] = 100,
 ) -> list[OperationView]:
     """The newest operations first (of an axis, in a state)."""
     ident = None
     if axis is not None:
-        ident = operations.gateway.topology.axis(axis).id
+        try:
+            ident = operations.gateway.topology.axis(axis).id
+        except NotFoundError as exc:
+            exc.field = "query.axis"
+            raise
     return [op.view() for op in operations.list(axis=ident, state=state, limit=limit)]

@@ -7,7 +7,7 @@ framing, line trace). A route states what it needs with the dependency ``require
 which returns the caller's ``Principal``; a missing or unknown token is a 401 problem with
 ``WWW-Authenticate: Bearer``, a token too weak a 403 problem naming the role needed.
 
-No-auth mode (``--no-auth``, or ``--simulate`` on loopback without tokens): every caller is
+No-auth mode (``serve --no-auth``, and only then): every caller is
 ``Principal("anonymous", admin, client)``. ``AuthConfig.decide`` applies the rule that it is
 allowed on loopback only.
 """
@@ -29,6 +29,7 @@ from fastapi.routing import APIRoute
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 from starlette.requests import HTTPConnection
 from starlette.routing import BaseRoute
+from starlette.types import Scope
 
 try:  # FastAPI >= 0.16x: included routers are branches, flattened by this
     from fastapi.routing import iter_route_contexts as _iter_contexts
@@ -55,6 +56,7 @@ __all__ = [
     "install_security",
     "is_loopback",
     "new_token",
+    "principal_of",
     "require",
     "route_roles",
 ]
@@ -160,15 +162,13 @@ class AuthConfig:
         tokens: Iterable[TokenLike] = (),
         *,
         no_auth: bool = False,
-        simulate: bool = False,
     ) -> AuthConfig:
-        """The mode of ``serve``: ``--no-auth`` only on loopback (ValueError otherwise);
-        ``--simulate`` on loopback without tokens runs without authentication too."""
+        """The mode of ``serve``: the tokens, or open with ``--no-auth``, which is allowed on
+        loopback only (ValueError otherwise). Nothing else turns authentication off."""
         book = TokenBook.from_settings(tokens)
-        loopback = is_loopback(host)
-        if no_auth and not loopback:
+        if no_auth and not is_loopback(host):
             raise ValueError(f"--no-auth is only allowed when bound to loopback, not {host!r}")
-        return cls(book, no_auth=no_auth or (simulate and loopback and not len(book)))
+        return cls(book, no_auth=no_auth)
 
     def authenticate(self, token: str | None, client: str) -> Principal | None:
         """The principal of ``token`` (None: missing or unknown); anyone in no-auth mode."""
@@ -255,6 +255,15 @@ def _bearer_of(connection: HTTPConnection) -> str | None:
     if scheme.lower() == "bearer" and credentials.strip():
         return credentials.strip()
     return None
+
+
+def principal_of(scope: Scope) -> Principal | None:
+    """Who sent the request of ``scope`` by its ``Authorization`` header (None: no or an
+    unknown token), for answers given before any route authenticated it (the audit log)."""
+    connection = HTTPConnection(scope)
+    if "app" not in scope:
+        return None
+    return _auth_of(connection).authenticate(_bearer_of(connection), _client(connection))
 
 
 def authenticate_websocket(ws: WebSocket, auth: AuthConfig | TokenBook) -> Principal | None:

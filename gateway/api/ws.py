@@ -13,6 +13,10 @@ One connection, one feed client. Decisions (see ``ws_messages.CLOSE_CODES``):
   waits on a slow socket. When the queue overflows (``ws.backlog`` unsent messages) the feed
   drops the client at once and this handler closes the connection with 4008 "backlog
   exceeded" (counted as dropped in the metrics). Nobody else waits for it.
+* A client message longer than ``WS_MESSAGE_LIMIT`` bytes is refused by the server as its
+  frame header arrives (uvicorn ``ws_max_size``): the connection is closed with 1009
+  "message too big" before the message is read. The longest message a client needs (a
+  subscribe to every resource) is a few kilobytes.
 * Keepalive is the WebSocket protocol's own ping, sent by the server (uvicorn
   ``ws_ping_interval``, see ``uvicorn_ws_options``): every client library answers it
   without application code, and a peer that stops answering is closed (1011).
@@ -41,6 +45,7 @@ from gateway.service.roles import Role
 
 __all__ = [
     "CLOSE_TIMEOUT",
+    "WS_MESSAGE_LIMIT",
     "WsCounter",
     "install_ws",
     "router",
@@ -50,6 +55,8 @@ __all__ = [
 
 log = logging.getLogger("gateway.api")
 
+#: Bytes a client message may have (a frame announcing more is refused with 1009).
+WS_MESSAGE_LIMIT = 64 * 1024
 #: Seconds a close may wait for a socket that does not drain (a client that stopped reading).
 CLOSE_TIMEOUT = 10.0
 
@@ -71,9 +78,11 @@ class WsCounter(Protocol):
 
 def uvicorn_ws_options(settings: WsSettings) -> dict[str, Any]:
     """Keyword arguments of ``uvicorn.Config`` for the feed: protocol pings every
-    ``ping_interval`` (a client silent as long again is closed), and no per-message deflate,
-    which would compress every message once per client instead of once."""
+    ``ping_interval`` (a client silent as long again is closed), client messages of at most
+    ``WS_MESSAGE_LIMIT`` bytes, and no per-message deflate, which would compress every
+    message once per client instead of once."""
     return {
+        "ws_max_size": WS_MESSAGE_LIMIT,
         "ws_ping_interval": settings.ping_interval,
         "ws_ping_timeout": settings.ping_interval,
         "ws_per_message_deflate": False,

@@ -63,6 +63,7 @@ def _parse(args: argparse.Namespace) -> int:
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of every subcommand."""
+    from gateway.cli.check_config import add_check_config_parser
     from gateway.cli.documents import add_document_parsers
     from gateway.cli.serve import add_serve_parser
     from gateway.protocol.params import PositionFormat
@@ -79,6 +80,7 @@ def build_parser() -> argparse.ArgumentParser:
     prs.set_defaults(func=_parse)
     add_sim_parser(sub)
     add_serve_parser(sub)
+    add_check_config_parser(sub)
     add_document_parsers(sub)
     add_remote_parsers(sub)
     return parser

@@ -1,14 +1,16 @@
 """``rc233-gateway serve``: the REST/WebSocket API on the loops of a configuration file.
 
-``serve --config cell.toml`` runs the loops the file describes; ``serve --simulate`` needs no
-file: an in-process simulated loop (``sim``) with three controllers whose axes are named
-(gateway/service/simulated.py), taking the simulator's options. A configuration can equally
-point a loop at ``rc233-gateway sim --pty`` or ``--tcp`` through its device path or
-``socket://`` URL: the path a real site uses.
+``serve --config cell.toml`` runs the loops the file describes, once every problem
+``rc233-gateway check-config`` finds in it is fixed. ``serve --simulate`` runs in-process
+simulated loops: without a file one loop (``sim``) with three controllers whose axes are named
+(gateway/service/simulated.py); with ``--config`` the file's loops, controllers, names, units,
+tokens and audit log, each loop's port replaced by a simulated loop (9600 bps). Either takes
+the simulator's options. A configuration can equally point a loop at ``rc233-gateway sim
+--pty`` or ``--tcp`` through its device path or ``socket://`` URL: the path a real site uses.
 
-Authentication: with tokens in the configuration every request needs one. Without tokens
-(or with ``--no-auth``) the API is open, which is refused unless it is bound to loopback,
-and said loudly in the log when it is.
+Authentication, one rule: every request needs a token of the configuration unless the API is
+started with ``--no-auth``, which is accepted only on loopback and said loudly in the log.
+A configuration without tokens therefore needs ``--no-auth`` (``make run`` gives it).
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ import gc
 import logging
 import socket
 import sys
+from collections.abc import Callable
 from pathlib import Path
 from types import FrameType
 from typing import Any
@@ -28,12 +31,13 @@ import uvicorn
 from gateway.api.app import create_app
 from gateway.api.security import AuthConfig, is_loopback
 from gateway.api.ws import uvicorn_ws_options
+from gateway.cli.check_config import NO_TOKENS, check_file, problems_error
 from gateway.cli.logs import configure_logging
 from gateway.cli.notify import notify
 from gateway.mqtt.commands import DeviceCommands
 from gateway.mqtt.edge_node import EdgeNode
 from gateway.protocol.framing import Series
-from gateway.service.config import ConfigError, GatewayConfig, load_config
+from gateway.service.config import ConfigError, GatewayConfig
 from gateway.service.gateway import Gateway
 from gateway.service.simulated import SIM_LOOP, simulated_config
 from gateway.service.state_log import StateLog
@@ -85,20 +89,35 @@ def add_serve_parser(subparsers: Any) -> argparse.ArgumentParser:
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    what = serve.add_mutually_exclusive_group(required=True)
-    what.add_argument("--config", type=Path, metavar="FILE", help="the cell's TOML file")
-    what.add_argument("--simulate", action="store_true", help="an in-process simulated loop")
+    serve.add_argument("--config", type=Path, metavar="FILE", help="the cell's TOML file")
+    serve.add_argument(
+        "--simulate",
+        action="store_true",
+        help="in-process simulated loops (the --config file's, or one loop `sim`)",
+    )
     serve.add_argument("--host", default=DEFAULT_HOST, help=f"default {DEFAULT_HOST}")
     serve.add_argument("--port", type=int, default=DEFAULT_PORT, help=f"default {DEFAULT_PORT}")
     serve.add_argument(
-        "--no-auth", action="store_true", help="no tokens asked (loopback only; logged loudly)"
+        "--no-auth",
+        action="store_true",
+        help="no token asked: the API is open (loopback only; logged loudly)",
     )
     sim = serve.add_argument_group("with --simulate (as `rc233-gateway sim`)")
-    sim.add_argument("--bodies", type=parse_bodies, default=["1", "2", "3"], help="default 1,2,3")
+    sim.add_argument(
+        "--bodies",
+        type=parse_bodies,
+        default=["1", "2", "3"],
+        help="default 1,2,3 (with --config: the file's)",
+    )
     sim.add_argument("--scene", type=Path, metavar="FILE", help="sensor layout (TOML)")
     sim.add_argument("--eeprom-dir", type=Path, metavar="DIR", help="the controllers' EEPROM")
     sim.add_argument("--time-scale", type=positive, default=1.0, metavar="X", help="speed-up")
-    sim.add_argument("--control", type=host_port, metavar="HOST:PORT", help="control surface")
+    sim.add_argument(
+        "--control",
+        type=host_port,
+        metavar="HOST:PORT",
+        help="control surface (of the first loop)",
+    )
     serve.add_argument("-v", "--verbose", action="store_true", help="debug logging")
     serve.add_argument(
         "--log-format",
@@ -110,31 +129,53 @@ def add_serve_parser(subparsers: Any) -> argparse.ArgumentParser:
     return serve
 
 
-def _simulated(args: argparse.Namespace) -> tuple[GatewayConfig, SimLoop, Transport]:
+def _simulated(
+    args: argparse.Namespace, config: GatewayConfig | None
+) -> tuple[GatewayConfig, list[SimLoop], dict[str, Transport]]:
+    """The simulated loops: one per loop of ``config`` (its controllers), or ``sim``."""
     scene = load_scene(args.scene) if args.scene else None
-    sim = build_loop(
-        args.bodies,
-        series=Series.DOLLAR,
-        scene=scene,
-        eeprom_dir=args.eeprom_dir or default_eeprom_dir(),
-        clock=SimClock(args.time_scale),
-    )
-    return simulated_config(args.bodies), sim, PipeTransport(lambda: SimPort(sim))
+    eeprom_dir: Path = args.eeprom_dir or default_eeprom_dir()
+    if config is None:
+        config = simulated_config(args.bodies)
+        wanted = [(SIM_LOOP, list(args.bodies), Series.DOLLAR, eeprom_dir)]
+    else:
+        wanted = []
+        for i, loop in enumerate(config.loops):
+            if loop.baud != 9600:
+                raise ConfigError(f"loops[{i}].baud: simulated controllers answer at 9600 bps")
+            marks = {c.series for c in loop.controllers}
+            if len(marks) > 1:
+                raise ConfigError(f"loops[{i}].controllers: simulated loops have one series")
+            bodies = [c.body for c in loop.controllers]
+            # Each loop its own EEPROM files: the same body number on two loops is two units.
+            wanted.append((loop.name, bodies, Series(marks.pop()), eeprom_dir / loop.name))
+    sims: list[SimLoop] = []
+    transports: dict[str, Transport] = {}
+    for name, bodies, series, eeproms in wanted:
+        sim = build_loop(
+            bodies, series=series, scene=scene, eeprom_dir=eeproms, clock=SimClock(args.time_scale)
+        )
+        sims.append(sim)
+        transports[name] = PipeTransport(_port_of(sim))
+    return config, sims, transports
+
+
+def _port_of(sim: SimLoop) -> Callable[[], SimPort]:
+    return lambda: SimPort(sim)
 
 
 def _auth(args: argparse.Namespace, config: GatewayConfig) -> AuthConfig:
-    """Tokens or not (``AuthConfig.decide``); a server nobody could use is refused."""
+    """Tokens, or open with ``--no-auth`` on loopback (``AuthConfig.decide``)."""
     try:
-        auth = AuthConfig.decide(
-            args.host, config.security.tokens, no_auth=args.no_auth, simulate=args.simulate
-        )
+        auth = AuthConfig.decide(args.host, config.security.tokens, no_auth=args.no_auth)
     except ValueError as exc:
         raise ConfigError(str(exc)) from None
     if not auth.no_auth and not len(auth.book):
         raise ConfigError(
-            f"--host {args.host}: no API tokens are configured, so nobody could use the API; "
-            "add [[security.tokens]] (`rc233-gateway token`)"
-            + (" or give --no-auth" if is_loopback(args.host) else " or bind to 127.0.0.1")
+            NO_TOKENS
+            if is_loopback(args.host)
+            else f"--host {args.host}: no API token is configured, so nobody could use the "
+            "API; add one (`rc233-gateway token`), or run it open on 127.0.0.1 with --no-auth"
         )
     return auth
 
@@ -154,26 +195,35 @@ def _edge_node(
     return EdgeNode(gateway, mqtt, commands=commands)
 
 
+def _configured(args: argparse.Namespace) -> GatewayConfig | None:
+    """The ``--config`` file, once ``check-config`` finds no problem in it (None: no file)."""
+    if args.config is None:
+        return None
+    config, problems = check_file(args.config, no_auth=args.no_auth, ports=not args.simulate)
+    if problems:
+        raise problems_error(args.config, problems)
+    return config
+
+
 async def serve(args: argparse.Namespace) -> int:
     """Run the API until SIGINT/SIGTERM; the exit code."""
-    sim: SimLoop | None = None
+    sims: list[SimLoop] = []
     transports: dict[str, Transport] = {}
+    config = _configured(args)
     if args.simulate:
-        config, sim, transport = _simulated(args)
-        transports[SIM_LOOP] = transport
-    else:
-        config = load_config(args.config)
+        config, sims, transports = _simulated(args, config)
+    assert config is not None
     auth = _auth(args, config)
     gateway = Gateway(config, transports=transports, time_scale=args.time_scale)
     StateLog(gateway).start()
     app = create_app(gateway, auth=auth)
     control: asyncio.Server | None = None
-    if sim is not None and args.control:
-        control = await serve_control(Controls(sim), *args.control)
+    if sims and args.control:
+        control = await serve_control(Controls(sims[0]), *args.control)
     if auth.no_auth:
         log.warning(
             "AUTHENTICATION IS OFF: anyone who can reach http://%s:%d may move the machines "
-            "(loopback only; add tokens to the configuration to turn it on)",
+            "(loopback only; started with --no-auth)",
             args.host,
             args.port,
         )
@@ -192,7 +242,7 @@ async def serve(args: argparse.Namespace) -> int:
     print(
         f"rc233-gateway serve: dashboard http://{args.host}:{args.port}/ "
         f"API http://{args.host}:{args.port}/api/v1 loops {loops}"
-        + (" [simulated]" if sim is not None else ""),
+        + (" [simulated]" if sims else ""),
         flush=True,
     )
     edge_node = _edge_node(gateway, config, auth, app)
@@ -210,12 +260,15 @@ async def serve(args: argparse.Namespace) -> int:
             edge_node.close()
         if control is not None:
             control.close()
-        if sim is not None:
+        for sim in sims:
             sim.close()
     return 0
 
 
 def _main(args: argparse.Namespace) -> int:
+    if args.config is None and not args.simulate:
+        print("rc233-gateway serve: give --config FILE, --simulate, or both", file=sys.stderr)
+        return 2
     configure_logging(args.log_format, verbose=args.verbose)
     try:
         return asyncio.run(serve(args))

@@ -38,7 +38,9 @@ __all__ = ["Command", "build_model", "form_key", "model_name"]
 class Command(BaseModel):
     """Base of every command model: one form of one command, with valid parameters."""
 
-    model_config = ConfigDict(frozen=True, extra="forbid")
+    # Strict: a parameter is given as its JSON type (an integer as a number, never "4000");
+    # parse() decodes command text into those types first.
+    model_config = ConfigDict(frozen=True, extra="forbid", strict=True)
 
     spec: ClassVar[CommandSpec]
     form: ClassVar[Form]

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from enum import StrEnum
 from typing import Annotated, Any, Literal
 
-from pydantic import Field
+from pydantic import BeforeValidator, Field
 from typing_extensions import override
 
 from gateway.errors import ParameterError
@@ -40,6 +40,7 @@ __all__ = [
     "Position",
     "PositionFormat",
     "Text",
+    "exact_int",
     "jump_count",
 ]
 
@@ -207,6 +208,14 @@ class HexDigit(Param):
         return Annotated[int, Field(ge=self.lo, le=self.hi, description=self.rule())]
 
 
+def exact_int(value: Any) -> Any:
+    """``value`` if it is an integer; a boolean or a decimal is refused, though ``True == 1``
+    and ``1.0 == 1`` would pass pydantic's ``Literal[1, 2]`` even in strict mode."""
+    if isinstance(value, bool) or (isinstance(value, float) and not isinstance(value, int)):
+        raise ValueError("Input should be an integer, not a boolean or a decimal")
+    return value
+
+
 @dataclass(frozen=True)
 class IntChoice(Param):
     """One digit out of a fixed set (motor number 1/2, counter 1/2, baud code 0-2)."""
@@ -233,7 +242,9 @@ class IntChoice(Param):
 
     @override
     def annotation(self) -> Any:
-        return Annotated[Literal[self.values], Field(description=self.rule())]
+        return Annotated[
+            Literal[self.values], BeforeValidator(exact_int), Field(description=self.rule())
+        ]
 
 
 @dataclass(frozen=True)

@@ -29,6 +29,7 @@ from gateway.bus.requests import TransactionResult
 from gateway.bus.state_types import ErrorKind
 from gateway.errors import ConflictError, DeviceError, InvalidInputError
 from gateway.protocol.models import Command
+from gateway.protocol.params import UNSIGNED_MAX
 from gateway.protocol.registry import parse
 from gateway.protocol.speeds import SpeedSettings
 from gateway.service.axis_speeds import (
@@ -131,6 +132,12 @@ class AxisService:
                 f"{position} is not a whole number of pulses",
                 field="body.position",
                 rule="a position in pulses is a whole number",
+            )
+        if abs(value) > UNSIGNED_MAX:  # no counter holds it: refused before anything is read
+            raise InvalidInputError(
+                f"{position} is {value} pulses, beyond the 24-bit position counter",
+                field="body.position",
+                rule=f"at most {UNSIGNED_MAX} pulses either way (§10 EP)",
             )
         fmt = await self.formats.get(ref.loop, ref.body)
         if relative:

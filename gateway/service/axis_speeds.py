@@ -79,7 +79,7 @@ class SpeedView(BaseModel):
 class SpeedChange(BaseModel):
     """New speed data; the fields left out keep their value."""
 
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", strict=True)
 
     oh: int | None = Field(None, ge=1, le=SPEED_DATA_MAX, description="High speed data (§10 OH)")
     ol: int | None = Field(None, ge=1, le=SPEED_DATA_MAX, description="Low speed data (§10 OL)")

@@ -151,10 +151,14 @@ class TokenSettings(_Strict):
 
 
 class SecuritySettings(_Strict):
-    """Tokens and CORS."""
+    """Tokens, CORS, and which read-only pages need no token."""
 
     tokens: list[TokenSettings] = Field(default_factory=list)
     cors_origins: list[str] = Field(default_factory=list)
+    #: ``/metrics`` without a token (scrapers); False: any token (viewer or above)
+    open_metrics: bool = True
+    #: ``/api/v1/docs`` and ``/api/v1/openapi.json`` without a token; False: any token
+    open_docs: bool = True
 
     @model_validator(mode="after")
     def _unique(self) -> Self:

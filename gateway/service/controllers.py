@@ -20,7 +20,7 @@ import dataclasses
 from dataclasses import replace
 from typing import Any
 
-from pydantic import BaseModel, Field
+from pydantic import BaseModel, ConfigDict, Field
 
 from gateway.bus.scheduler import LinkState
 from gateway.bus.trace import TraceRecord
@@ -66,7 +66,7 @@ class TraceView(BaseModel):
 class TraceSettings(BaseModel):
     """Switch the line trace of a loop (whole loop, or some controllers)."""
 
-    model_config = {"extra": "forbid"}
+    model_config = ConfigDict(extra="forbid", strict=True)
 
     enabled: bool = Field(description="trace every controller of the loop")
     controllers: list[str] = Field(

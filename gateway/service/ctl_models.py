@@ -8,9 +8,11 @@ unknown fields, so a misspelt field is a 422 naming it rather than silently igno
 from __future__ import annotations
 
 from enum import StrEnum
-from typing import Literal, Self
+from typing import Annotated, Literal, Self
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, model_validator
+
+from gateway.protocol.params import exact_int
 
 __all__ = [
     "Autostart",
@@ -41,10 +43,14 @@ __all__ = [
 ]
 
 ContactName = Literal["A", "B"]
+#: a motor number (1, 2): an integer, never ``true`` (which pydantic's Literal takes as 1)
+MotorNumber = Annotated[Literal[1, 2], BeforeValidator(exact_int)]
 
 
 class _Request(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    # Strict: JSON numbers and booleans only (no "5" for 5, no 1 for true); enum fields opt
+    # out, as pydantic's strict mode would want enum members rather than their JSON strings.
+    model_config = ConfigDict(extra="forbid", frozen=True, strict=True)
 
 
 class PortView(BaseModel):
@@ -75,7 +81,7 @@ class PositionWrite(_Request):
         None, ge=-8_388_608, le=16_777_215, description="pulses (signed needs EP1 or mode 1)"
     )
     current: bool = Field(False, description="store the selected motor's current position")
-    motor: Literal[1, 2] | None = Field(
+    motor: MotorNumber | None = Field(
         None, description="with current: the motor whose position is stored (selected first)"
     )
 
@@ -172,7 +178,7 @@ class ModeView(BaseModel):
 class ModeWrite(_Request):
     """Set the operating mode (``E{mode}``; admin; not while moving)."""
 
-    mode: Literal[0, 1, 2]
+    mode: Annotated[Literal[0, 1, 2], BeforeValidator(exact_int)]
 
 
 class EepromArea(StrEnum):
@@ -186,7 +192,7 @@ class EepromArea(StrEnum):
 class EepromRequest(_Request):
     """Which EEPROM area to save or load."""
 
-    area: EepromArea
+    area: EepromArea = Field(strict=False)
 
 
 # ---------------------------------------------------------------------- programs
@@ -259,7 +265,7 @@ class CounterWrite(_Request):
 class Autostart(BaseModel):
     """Program autostart at power-on (``GA``; ``GAS``/``GAR`` write the EEPROM at once)."""
 
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", strict=True)
 
     enabled: bool
 
@@ -271,6 +277,7 @@ class RawRequest(_Request):
     """Command text for one controller of the loop, parsed through the catalog first."""
 
     controller: str = Field(
+        max_length=64,
         description="the body number on this loop ('1'), or the controller's id or name",
         examples=["1"],
     )
@@ -280,6 +287,6 @@ class RawRequest(_Request):
         description="the text between body number and CR, e.g. OH4000",
         examples=["OH4000"],
     )
-    motor: Literal[1, 2] | None = Field(
+    motor: MotorNumber | None = Field(
         None, description="select this motor first (F) for commands without a motor digit"
     )

@@ -55,7 +55,8 @@ class AxisRef:
     def to_pulses(self, value: float, field: str) -> int:
         """User units to whole pulses; refused when not a whole number of pulses (±1e-6)."""
         pulses = value / self.units_per_pulse
-        nearest = round(pulses)
+        # round() of an infinity raises OverflowError: look at it first
+        nearest = round(pulses) if math.isfinite(pulses) else 0
         if not math.isfinite(pulses) or abs(pulses - nearest) > 1e-6:
             raise InvalidInputError(
                 f"{value} {self.unit} is not a whole number of pulses on axis {self.id}",

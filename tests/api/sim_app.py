@@ -6,8 +6,9 @@ time), the gateway on it through ``PipeTransport`` (the gateway's real serial co
 the OS) and the app from ``create_app``; it runs the app's lifespan (loops and polling start),
 waits until the poller has read every controller, and gives an httpx client on it. Without
 ``roles`` the API runs without authentication; with ``roles=True`` every request needs one of
-``TOKENS``. ``api.heard(body)`` is what the simulated controller heard, from the simulator's
-own line log, so a test asserts the bytes on the wire.
+``TOKENS``; ``audit_log`` is the audit log's file; ``config`` replaces the simulated one.
+``api.heard(body)`` is what the simulated controller heard, from the simulator's own line
+log, so a test asserts the bytes on the wire.
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from fastapi import FastAPI
 from gateway.api.app import create_app
 from gateway.api.security import AuthConfig, TokenBook, TokenEntry, hash_token
 from gateway.bus.state_types import ControllerState
+from gateway.service.config import GatewayConfig
 from gateway.service.events import ServiceEvent
 from gateway.service.gateway import Gateway
 from gateway.service.leases import Leases
@@ -144,11 +146,16 @@ async def running_app(
     scale: float = SCALE,
     roles: bool = False,
     eeprom_dir: Path | None = None,
+    audit_log: Path | None = None,
+    config: GatewayConfig | None = None,
 ) -> AsyncIterator[Api]:
     """The app on a simulated loop, started and identified; closed after the block."""
     sim = build_loop(list(bodies), clock=SimClock(scale), eeprom_dir=eeprom_dir)
+    config = config or simulated_config(bodies)
+    if audit_log is not None:
+        config = config.model_copy(update={"audit_log": audit_log})
     gateway = Gateway(
-        simulated_config(bodies),
+        config,
         transports={SIM_LOOP: PipeTransport(lambda: SimPort(sim))},
         time_scale=scale,
     )

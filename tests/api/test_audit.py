@@ -26,6 +26,7 @@ from gateway.api.security import (
     require,
 )
 from gateway.service.roles import Role
+from tests.api.sim_app import running_app
 
 TOKENS = {"vera": ("viewer-secret", Role.VIEWER), "otto": ("operator-secret", Role.OPERATOR),
           "ada": ("admin-secret", Role.ADMIN)}  # fmt: skip
@@ -225,3 +226,82 @@ async def test_a_disk_that_fails_loses_no_request(tmp_path: Path, caplog: pytest
     assert audit.write_errors == 1
     assert [e["status"] for e in audit.entries()] == [202]
     assert "not written" in caplog.text
+
+
+async def test_a_lone_surrogate_reaches_the_file_and_keeps_the_writer_alive(audited: Audited):
+    # A body the gate would refuse, sent to an app without it: the record must still hold.
+    for note in ("\ud800", "ok", "\udfff tail"):
+        body = json.dumps({"position": 1, "note": note}).encode()
+        r = await audited.client.post(
+            "/api/v1/axes/x/move",
+            content=body,
+            headers={**auth("otto"), "Content-Type": "application/json"},
+        )
+        assert r.status_code == 202
+    lines = await audited.lines()
+    assert [e["seq"] for e in lines] == [1, 2, 3]
+    assert [e["body"]["note"] for e in lines] == ["\ud800", "ok", "\udfff tail"]
+    assert audited.audit.write_errors == 0
+
+
+async def test_a_write_that_fails_is_loud_and_retried(tmp_path: Path):
+    path = tmp_path / "audit.jsonl"
+    path.mkdir()  # a directory where the file should be: every write fails
+    audit = AuditLog(path)
+    audit.record({"time": "t", "method": "POST", "path": "/1"})
+    await audit.flush()
+    assert not audit.healthy
+    assert "audit.jsonl" in (audit.last_error or "")
+    assert "rc233_audit_write_errors_total 1" in audit.exposition()
+    assert "rc233_audit_log_ok 0" in audit.exposition()
+    path.rmdir()  # the disk is back: the next write carries the line that failed
+    audit.record({"time": "t", "method": "POST", "path": "/2"})
+    await audit.close()
+    assert [json.loads(line)["seq"] for line in path.read_text("utf-8").splitlines()] == [1, 2]
+    assert audit.healthy
+    assert "rc233_audit_log_ok 1" in audit.exposition()
+
+
+async def test_a_request_refused_before_authentication_names_its_token(audited: Audited):
+    r = await audited.client.delete("/api/v1/audit", headers=auth("ada"))
+    assert r.status_code == 405
+    r = await audited.client.post("/api/v1/nowhere", headers=auth("otto"))
+    assert r.status_code == 404
+    lines = await audited.lines()
+    assert [(e["status"], e["token"], e["role"]) for e in lines] == [
+        (405, "ada", "admin"),
+        (404, "otto", "operator"),
+    ]
+
+
+async def test_a_token_in_the_query_is_not_recorded(audited: Audited):
+    r = await audited.client.post(
+        "/api/v1/axes/x/move?token=operator-secret&wait=true",
+        json={"position": 1},
+        headers=auth("otto"),
+    )
+    assert r.status_code == 202
+    (line,) = await audited.lines()
+    assert line["query"] == "token=***&wait=true"
+    assert "operator-secret" not in audited.path.read_text("utf-8")  # type: ignore[union-attr]
+
+
+async def test_a_failing_audit_file_makes_the_gateway_not_ready(tmp_path: Path):
+    path = tmp_path / "audit.jsonl"
+    async with running_app(("1",), audit_log=path) as api:
+        r = await api.client.post("/axes/x/stop")
+        assert r.status_code == 200, r.text
+        assert (await api.client.get("http://gateway.test/readyz")).status_code == 200
+        audit: AuditLog = api.app.state.audit
+        await audit.flush()
+        path.unlink()
+        path.mkdir()  # the file is gone and cannot be made again
+        r = await api.client.post("/axes/x/stop")
+        assert r.status_code == 200, r.text
+        await audit.flush()
+        ready = await api.client.get("http://gateway.test/readyz")
+        assert ready.status_code == 503
+        assert "audit log" in ready.json()["detail"]
+        metrics = (await api.client.get("http://gateway.test/metrics")).text
+        assert "rc233_audit_write_errors_total 1" in metrics
+        assert "rc233_audit_log_ok 0" in metrics

@@ -174,11 +174,10 @@ def test_decide_no_auth_only_on_loopback():
     with pytest.raises(ValueError, match="loopback"):
         AuthConfig.decide("0.0.0.0", no_auth=True)
     assert AuthConfig.decide("127.0.0.1", tokens, no_auth=True).no_auth
-    # --simulate on loopback runs open unless tokens are given
-    assert AuthConfig.decide("127.0.0.1", simulate=True).no_auth
-    assert AuthConfig.decide("::1", simulate=True).no_auth
-    assert not AuthConfig.decide("127.0.0.1", tokens, simulate=True).no_auth
-    assert not AuthConfig.decide("0.0.0.0", simulate=True).no_auth
+    assert AuthConfig.decide("::1", no_auth=True).no_auth
+    # One rule: nothing but --no-auth turns authentication off (no tokens: nobody gets in)
+    assert not AuthConfig.decide("127.0.0.1").no_auth
+    assert not AuthConfig.decide("127.0.0.1", tokens).no_auth
     assert not AuthConfig.decide("localhost").no_auth
     assert [is_loopback(h) for h in ("localhost", "127.0.0.2", "[::1]", "192.168.1.2", "host")] == [
         True, True, True, False, False

@@ -168,7 +168,7 @@ def start_simulated(tmp: Path, *options: str) -> Gateway:
     port, control = free_port(), free_port()
     process = Process(
         [
-            str(GATEWAY), "serve", "--simulate", "--port", str(port),
+            str(GATEWAY), "serve", "--simulate", "--no-auth", "--port", str(port),
             "--control", f"127.0.0.1:{control}", "--eeprom-dir", str(tmp), *options,
         ],
         tmp / "serve.log",

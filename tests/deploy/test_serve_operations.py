@@ -34,7 +34,7 @@ async def test_ready_on_the_notify_socket_and_json_lines(tmp_path: Path) -> None
     receiver.bind(str(path))
     receiver.setblocking(False)
     loop = asyncio.get_running_loop()
-    options = ("--simulate", "--time-scale", str(TIME_SCALE), "--log-format", "json")
+    options = ("--simulate", "--no-auth", "--time-scale", str(TIME_SCALE), "--log-format", "json")
     try:
         async with serve(tmp_path, *options, env={"NOTIFY_SOCKET": str(path)}) as server:
             ready = await asyncio.wait_for(loop.sock_recv(receiver, 4096), 10)

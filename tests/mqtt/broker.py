@@ -246,7 +246,7 @@ class Cell:
         """Start the process; its edge node connects by itself."""
         env = {**os.environ, "RC233_MQTT": json.dumps(self.mqtt), "XDG_DATA_HOME": str(workdir)}
         self.process = await asyncio.create_subprocess_exec(
-            str(GATEWAY), "serve", "--simulate", "--port", str(self.http),
+            str(GATEWAY), "serve", "--simulate", "--no-auth", "--port", str(self.http),
             "--time-scale", str(self.time_scale), "--eeprom-dir", str(workdir),
             "--control", f"127.0.0.1:{self.control_port}",
             stdout=asyncio.subprocess.DEVNULL, stderr=asyncio.subprocess.DEVNULL, env=env,

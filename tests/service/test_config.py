@@ -20,8 +20,25 @@ def _with(**changes: object) -> dict[str, object]:
     return {"loops": [loop]}
 
 
-def test_the_deploy_example_is_valid_and_says_what_it_holds() -> None:
-    config = load_config(EXAMPLE)
+def test_the_deploy_example_ships_no_working_token_and_says_what_it_holds(
+    tmp_path: Path,
+) -> None:
+    # As shipped, the tokens are placeholders that are no digest: the file is refused.
+    with pytest.raises(ConfigError) as caught:
+        load_config(EXAMPLE)
+    problems = str(caught.value).splitlines()[1:]
+    assert [p.split(":")[0].strip() for p in problems] == [
+        "security.tokens[0].sha256",
+        "security.tokens[1].sha256",
+    ]
+    # With each placeholder replaced by a real digest, the rest of the file is valid.
+    text = EXAMPLE.read_text("utf-8")
+    placeholder = '"REPLACE-with-the-sha256-line-of-rc233-gateway-token"'
+    for digit in "12":
+        text = text.replace(placeholder, f'"{digit * 64}"', 1)
+    filled = tmp_path / "cell.toml"
+    filled.write_text(text, "utf-8")
+    config = load_config(filled)
     loop = config.loops[0]
     assert loop.name == "main" and loop.baud == 9600
     assert [c.body for c in loop.controllers] == ["1", "2"]
@@ -29,6 +46,7 @@ def test_the_deploy_example_is_valid_and_says_what_it_holds() -> None:
     assert (x.name, x.unit, x.units_per_pulse, x.soft_min, x.soft_max) == (
         "x", "mm", 0.01, -5.0, 900.0)  # fmt: skip
     assert [t.role for t in config.security.tokens] == [Role.OPERATOR, Role.VIEWER]
+    assert config.security.open_metrics and config.security.open_docs
 
 
 def test_defaults_of_a_minimal_file() -> None:
