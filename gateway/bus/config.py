@@ -40,6 +40,9 @@ class LoopConfig:
     erase_hold: float = 21.0
     #: this many time-outs in a row with no byte received at all: the line is taken as gone
     timeouts_to_down: int = 8
+    #: while down with the port open: every controller that answered before is asked this
+    #: often (device seconds) whether it answers again (``LoopLifecycle._answered``)
+    probe_period: float = 0.25
     reconnect_initial_real: float = 0.1
     reconnect_max_real: float = 5.0
     #: real seconds a request may wait to start, per priority (None: no limit; stops)

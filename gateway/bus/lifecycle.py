@@ -118,6 +118,10 @@ class LoopLifecycle:
     def _wake_up(self) -> None:
         self._wake.set()
 
+    def down_error(self) -> LoopDown:
+        """The error of a request refused because the loop is not up (with its retry hint)."""
+        return self._down_error()
+
     def _down_error(self, *, in_flight: bool = False) -> LoopDown:
         retry = None
         if self._retry_at is not None and self.state is not LinkState.CLOSED:
@@ -140,7 +144,9 @@ class LoopLifecycle:
                 if await self._connect():
                     self._first_attempt.set()
                     try:
-                        await self._serve()
+                        if await self._answered():
+                            self._go_up()
+                            await self._serve()
                     except LinkLost as exc:
                         await self._go_down(exc.cause)
                     except Exception as exc:  # a defect: fail the callers, reopen, go on
@@ -174,13 +180,43 @@ class LoopLifecycle:
         self._core.framing.forget()
         self._core.detect_failed.clear()
         self._core.deaf_until.clear()
+        self._core.silent.clear()
+        return True
+
+    async def _answered(self) -> bool:
+        """After a reopen: wait until a controller that answered before answers again.
+
+        An open port is not a line: a cut cable opens fine and carries nothing. The loop stays
+        down (requests fail at once) until one controller answers a probe; the probes go round
+        every ``probe_period`` device seconds, so the loop is up within about that much of the
+        line coming back, with one ``LinkUp`` per outage. The first connection has nobody to
+        ask: the poller finds the controllers. ``LinkLost`` if the port closes meanwhile.
+        """
+        if self.state is not LinkState.DOWN or not self._core.answering:
+            return True
+        pause = self.timing.real(self.config.probe_period)
+        while self.state is LinkState.DOWN:
+            for body in sorted(self._core.answering):
+                if await self._core.probe(body):
+                    return True
+            self._retry_at = self.clock() + pause
+            await asyncio.sleep(pause)
+        return False
+
+    def _go_up(self) -> None:
+        self._core.silent.clear()
         self.state = LinkState.UP
         self.cause = ""
         self._retry_at = None
         self.events.publish(LinkUp(loop=self.name, time=self.clock()))
-        return True
 
     async def _go_down(self, cause: str) -> None:
+        if self.state is LinkState.DOWN:  # lost again while probing: one LinkDown per outage
+            self.cause = cause
+            await self._link.stop()
+            with contextlib.suppress(Exception):
+                await self.transport.close()
+            return
         self.state = LinkState.DOWN
         self.cause = cause
         self.counters.link_downs += 1
@@ -199,6 +235,13 @@ class LoopLifecycle:
         while True:
             if self._link.lost_cause is not None:
                 raise LinkLost(self._link.lost_cause)
+            probe = self._core.needs_probe()
+            if probe is not None and self._queue.head_priority() is not Priority.STOP:
+                # Silence: is it one controller or the line? Ask another one now, so that a
+                # cut line is down within a few time-outs, not after the poller's backoff.
+                await self._core.probe(probe)
+                self._core.check_health(probe)
+                continue
             request = self._queue.pop()
             if request is None:
                 self._core.stop_waiting.clear()

@@ -240,7 +240,9 @@ class StateCache(ChangeLog):
         restored, the poller reads every controller again (issue 4)."""
         self._set_loop(now, loop, up=up, cause=None if up else cause)
         for name, body in [k for k in self._ctls if k[0] == loop]:
-            self._set_ctl(now, name, body, online=None, selection_confirmed=False)
+            # Nothing a silent loop said is current: not even that a motor moves (a moving
+            # flag that outlived the line would answer requests as a busy controller).
+            self._set_ctl(now, name, body, online=None, moving=False, selection_confirmed=False)
             for m in MOTORS:
                 self._set_axis(now, name, body, m, stale=True)
 

@@ -24,6 +24,7 @@ from __future__ import annotations
 from typing import Any
 
 from gateway.bus.requests import TransactionResult
+from gateway.bus.scheduler import LinkState
 from gateway.bus.state_types import ErrorKind
 from gateway.errors import ConflictError, DeviceError, InvalidInputError
 from gateway.protocol.models import Command
@@ -258,6 +259,9 @@ class AxisService:
     def _may_act(self, ref: AxisRef, holder: str, what: str = "move") -> None:
         """Leases, the controller online and not moving; nothing sent yet."""
         self.leases.check(holder, (ref.id, ref.controller_id))
+        scheduler = self.gateway.scheduler(ref.loop)
+        if scheduler.state is not LinkState.UP:
+            raise scheduler.down_error()  # the line first: a dead loop is no busy controller
         ctl = self.gateway.state.controller(ref.loop, ref.body)
         if ctl.online is False:
             raise DeviceError(
