@@ -33,6 +33,8 @@ from gateway.bus.framing_track import hint_from_stray
 from gateway.bus.link import Link, LinkLost
 from gateway.bus.queue import Request, RequestQueue
 from gateway.bus.requests import LoopDown, Priority, TransactionResult
+from gateway.bus.selection import needs_selection
+from gateway.bus.state import StateCache
 from gateway.bus.timing import Timing
 from gateway.bus.trace import LineTrace
 from gateway.bus.transaction import TransactionRunner
@@ -103,6 +105,8 @@ class LoopLifecycle:
         #: set while no transaction is in flight (graceful shutdown waits on it)
         self._idle = asyncio.Event()
         self._idle.set()
+        #: the state cache the scheduler feeds first and reads (``use_state``)
+        self.state_cache: StateCache | None = None
 
     def snapshot(self) -> CountersSnapshot:
         """The loop's counters now."""
@@ -121,6 +125,25 @@ class LoopLifecycle:
     def down_error(self) -> LoopDown:
         """The error of a request refused because the loop is not up (with its retry hint)."""
         return self._down_error()
+
+    def use_state(self, state: StateCache) -> None:
+        """Feed ``state`` with every event before any other subscriber, and read from it
+        what the controllers do (the one home of that knowledge)."""
+        self.state_cache = state
+        self.events.subscribe(lambda e: state.handle(e, queue_depth=len(self._queue)), first=True)
+
+    def _must_wait(self, request: Request) -> bool:
+        """A per-motor request whose F would be refused now: a motor of its controller moves
+        (§10 F, 動作中 ×) and another motor, or an unknown one, is selected. It waits (its
+        deadline bounds that); the status polls tell when the motion has ended."""
+        state = self.state_cache
+        if state is None or request.motor is None:
+            return False
+        if not state.controller(self.name, request.body).moving:
+            return False
+        if self._core.selection.get(request.body) == request.motor:
+            return False
+        return any(needs_selection(c) for c in request.commands)
 
     def _down_error(self, *, in_flight: bool = False) -> LoopDown:
         retry = None
@@ -242,7 +265,7 @@ class LoopLifecycle:
                 await self._core.probe(probe)
                 self._core.check_health(probe)
                 continue
-            request = self._queue.pop()
+            request = self._queue.pop(blocked=self._must_wait)
             if request is None:
                 self._core.stop_waiting.clear()
                 self._wake.clear()

@@ -300,7 +300,8 @@ def attach(
         time_scale=scheduler.config.time_scale,
         clock=scheduler.clock,
     )
-    # The state first: the poller reads what the event has just taught it.
-    scheduler.events.subscribe(lambda e: state.handle(e, queue_depth=scheduler.queue_depth))
+    # The state first, whoever subscribes when: the poller (and every other subscriber) reads
+    # what the event has just taught it.
+    scheduler.use_state(state)
     scheduler.events.subscribe(poller.handle)
     return poller

@@ -162,12 +162,32 @@ class RequestQueue:
         self._clean()
         return Priority(self._heap[0][0]) if self._heap else None
 
-    def pop(self, only: Priority | None = None) -> Request | None:
-        """The next live request (only of priority ``only`` if given), marked started."""
+    def pop(
+        self, only: Priority | None = None, *, blocked: Callable[[Request], bool] | None = None
+    ) -> Request | None:
+        """The next live request (only of priority ``only`` if given), marked started.
+
+        ``blocked(request)``: it cannot go now (it stays queued, bounded by its deadline) and
+        the next one is taken instead.
+        """
         self._clean()
         if not self._heap or (only is not None and self._heap[0][0] != only):
             return None
-        _, _, request = heapq.heappop(self._heap)
+        entry: tuple[int, int, Request] | None = self._heap[0]
+        if blocked is not None and blocked(self._heap[0][2]):
+            ready = [
+                e
+                for e in sorted(self._heap)
+                if e[2].live and e[0] == e[2].priority and (only is None or e[0] == only)
+            ]
+            entry = next((e for e in ready if not blocked(e[2])), None)
+            if entry is None:
+                return None
+            self._heap.remove(entry)
+            heapq.heapify(self._heap)
+        else:
+            entry = heapq.heappop(self._heap)
+        request = entry[2]
         request.started = True
         if request.key is not None and self._shared.get(request.key) is request:
             del self._shared[request.key]

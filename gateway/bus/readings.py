@@ -107,8 +107,10 @@ class _Reading:
             self.ctl(selected_motor=self.command.motor, selection_confirmed=False)
         elif form.effect is Effect.MOTION and not ctl.moving:
             # A suffix selects the motor and the selection stays (§9-1, §10 F).
+            # Moving from the '>' on, until a status read says otherwise: a per-motor command
+            # for the other motor must wait, its F would be refused (§10 F).
             moved = self.motor(ctl)
-            self.ctl(selected_motor=moved, last_moved=moved, selection_confirmed=False)
+            self.ctl(selected_motor=moved, last_moved=moved, selection_confirmed=False, moving=True)
         elif key[:-1] in ("EE", "EL", "ER", "SUM") and key[-1:] in "01":
             self.framing(key[:-1], key[-1] == "1")
 
