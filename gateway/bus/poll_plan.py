@@ -17,8 +17,8 @@ identify   ``""`` ``V`` ``94`` ``SUM``,           first contact, back online, li
 probe      ``""``                                 offline: backoff ``probe_initial`` .. ``_max``
 ========== ====================================== ===============================================
 
-Of the jobs that are due the most urgent runs first (the order of ``Job``), then the one due
-longest. Periods are device seconds; due times are host seconds on the scheduler's clock
+Of the jobs that are due the most urgent runs first (the order of ``Job``; an idle status read
+ranks with the moving ones), then the one due longest. Periods are device seconds; due times are host seconds on the scheduler's clock
 (its ``time_scale`` maps one to the other for the simulator). Nothing here reads a clock or
 talks to the line: ``gateway.bus.poller`` runs the jobs and reports back.
 """
@@ -105,15 +105,21 @@ class PollPlan:
     def pick(self, now: float) -> tuple[BodyPlan, Job] | float:
         """The most urgent due job, or the host time the next one is due."""
         best: tuple[Job, float, str] | None = None
+        picked = Job.STATUS
         earliest = float("inf")
         for plan in self.bodies.values():
             for job, due in plan.due.items():
-                if due <= now and (best is None or (job, due, plan.body) < best):
-                    best = (job, due, plan.body)
+                # An idle controller's status read ranks with the moving ones' (oldest
+                # first): moving polls come due faster than a busy line serves them, and
+                # an EMS or limit on an idle controller must be seen within its period too.
+                rank = Job.STATUS_MOVING if job is Job.STATUS else job
+                if due <= now and (best is None or (rank, due, plan.body) < best):
+                    best = (rank, due, plan.body)
+                    picked = job
                 earliest = min(earliest, due)
         if best is None:
             return earliest
-        return self.bodies[best[2]], best[0]
+        return self.bodies[best[2]], picked
 
     def next_due(self, due: float, period: float, now: float) -> float:
         """One period after the last due time, so a poll that started late (the line was
