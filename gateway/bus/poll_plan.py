@@ -19,8 +19,9 @@ probe      ``""``                                 offline: backoff ``probe_initi
 
 Of the jobs that are due the most urgent runs first (the order of ``Job``; an idle status read
 ranks with the moving ones), then the one due longest. Periods are device seconds; due times
-are host seconds on the scheduler's clock (its ``time_scale`` maps one to the other for the simulator). Nothing here reads a clock or
-talks to the line: ``gateway.bus.poller`` runs the jobs and reports back.
+are host seconds on the scheduler's clock (its ``time_scale`` maps one to the other for the
+simulator). Nothing here reads a clock or talks to the line: ``gateway.bus.poller`` runs the
+jobs and reports back.
 """
 
 from __future__ import annotations
