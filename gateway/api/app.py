@@ -17,7 +17,7 @@ from fastapi import FastAPI
 from fastapi.middleware.cors import CORSMiddleware
 
 from gateway.api import routes_axes, routes_controllers, routes_loops, routes_operations, ws
-from gateway.api.audit import AuditLog, install_audit
+from gateway.api.audit import AuditLog, install_audit, resolution_entry
 from gateway.api.health import install_operations
 from gateway.api.idempotency import install_idempotency
 from gateway.api.problems import install_problem_handlers
@@ -55,6 +55,7 @@ def create_app(gateway: Gateway, *, auth: AuthConfig) -> FastAPI:
     audit = AuditLog(gateway.config.audit_log)
     leases = Leases()
     operations = Operations(gateway)
+    operations.on_resolved(lambda op: audit.record(resolution_entry(op, API_PREFIX)))
     feed = Feed(gateway.topology, gateway.state, gateway.events, gateway.config.ws)
 
     @asynccontextmanager

@@ -145,7 +145,8 @@ class AxisService:
         else:
             moves = [position_data(target, fmt), parse("3")]
         request = {"position": position, "relative": relative, "unit": unit.value}
-        return await self._run(ref, "move", request, moves, target=target, holder=holder)
+        step = value if relative else None
+        return await self._run(ref, "move", request, moves, target=target, step=step, holder=holder)
 
     async def home(self, ident: str, method: HomeMethod, *, holder: str) -> Operation:
         """Search the origin with ``method``; the position is 0 there (§10 0 ... 0Z)."""
@@ -191,7 +192,10 @@ class AxisService:
         check_target(ref, target, fmt)
         request = {"direction": direction.value}
         commands = [parse(_STEP[direction])]
-        return await self._run(ref, "step", request, commands, target=target, holder=holder)
+        step = 1 if direction is Direction.CW else -1
+        return await self._run(
+            ref, "step", request, commands, target=target, step=step, holder=holder
+        )
 
     async def stop(self, ident: str, mode: StopMode) -> StopResult:
         """Stop: never refused (no lease, moving or state check). ``S``/``SS`` act on the
@@ -302,6 +306,7 @@ class AxisService:
         commands: list[Command],
         *,
         target: int | None = None,
+        step: int | None = None,
         holder: str,
     ) -> Operation:
         return await self.operations.run(
@@ -311,6 +316,7 @@ class AxisService:
             commands,
             motor=ref.motor,
             target=target,
+            step=step,
             prefix=self._prefix(ref),
             holder=holder,
         )

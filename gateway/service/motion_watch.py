@@ -18,6 +18,7 @@ from __future__ import annotations
 import asyncio
 import logging
 from collections.abc import Callable
+from dataclasses import dataclass, field
 from typing import Any
 
 from gateway.bus.events import BusEvent, LinkDown, ReplyObserved, TransactionDone
@@ -25,6 +26,7 @@ from gateway.bus.requests import Outcome
 from gateway.bus.state_types import Change
 from gateway.protocol.registry import parse
 from gateway.protocol.reply_values import StatusFlags
+from gateway.protocol.spec import Effect
 from gateway.service.gateway import Gateway
 from gateway.service.operation_types import FINAL, Operation, OperationError, OperationState
 
@@ -63,11 +65,15 @@ class MotionWatch:
         active: dict[tuple[str, str], Operation],
         set_state: Callable[[Operation, OperationState], None],
         end: Callable[[Operation, OperationState, OperationError | None], None],
+        resolve: Callable[[Operation, OperationState, OperationError | None, int | None], None],
     ) -> None:
         self.gateway = gateway
         self._active = active
         self._set = set_state
         self._end = end
+        self._resolve = resolve
+        #: per controller, the ``unknown`` operation to read back when it answers again
+        self._unknown: dict[tuple[str, str], _ReadBack] = {}
         self._tasks: set[asyncio.Task[Any]] = set()
         self._unsubscribe = [
             scheduler.events.subscribe(self._on_bus) for scheduler in gateway.schedulers.values()
@@ -89,6 +95,8 @@ class MotionWatch:
                     self._end(running, OperationState.UNKNOWN, error)
             return
         body = getattr(event, "body", None)
+        if isinstance(event, ReplyObserved) and (event.loop, event.body) in self._unknown:
+            self._read_back(self._unknown[event.loop, event.body], event)
         op = self._active.get((event.loop, body)) if isinstance(body, str) else None
         if op is None:
             return
@@ -131,6 +139,16 @@ class MotionWatch:
         if op.state in FINAL:
             return
         op.position = position
+        expected = op.expected_end
+        if (
+            "command_error" in op.errors
+            and position is not None
+            and position == expected
+            and position != op.position_before
+        ):
+            # The axis reached the end of this motion: it was carried out, so the command
+            # error the device latched meanwhile was raised by another command, not this one.
+            op.errors.discard("command_error")
         if "limit_error" in op.errors:
             self._end(op, OperationState.FAILED, _LIMIT)
         elif "emergency_stop" in op.errors:
@@ -167,3 +185,68 @@ class MotionWatch:
                     "offline", "Controller offline", "the controller stopped answering", "unknown"
                 )
                 self._end(op, OperationState.UNKNOWN, error)
+
+    # ------------------------------------------------------------------ read back
+
+    def read_back_later(self, op: Operation) -> None:
+        """``op`` ended ``unknown``: judge it once its controller answers again (a status read
+        that shows no motion, then a position read of its motor, against the pre-read)."""
+        if op.position_before is None or op.expected_end is None:
+            return  # nothing to compare a read-back with: it stays unknown, with its reason
+        self._unknown[op.axis.loop, op.axis.body] = _ReadBack(op)
+
+    def _read_back(self, rb: _ReadBack, event: ReplyObserved) -> None:
+        op, value = rb.op, event.value
+        key = (op.axis.loop, op.axis.body)
+        if op.state is not OperationState.UNKNOWN:
+            del self._unknown[key]
+            return
+        accepted = value is None and not event.rejected
+        if accepted and event.command.form.effect is Effect.MOTION:
+            del self._unknown[key]  # another motion started: the read-back would judge it
+            return
+        if isinstance(value, StatusFlags):
+            rb.settled = not value.moving
+            if value.limit_error:
+                rb.errors.add("limit_error")
+            if value.emergency_stop:
+                rb.errors.add("emergency_stop")
+            if rb.settled and not rb.reading:
+                rb.reading = True
+                task = asyncio.ensure_future(self._read_position(op))
+                self._tasks.add(task)
+                task.add_done_callback(self._tasks.discard)
+        elif rb.settled and event.command.key in ("6", "6{mt}"):
+            motor = event.command.motor or event.motor
+            if motor == op.motor and isinstance(value, int) and not isinstance(value, bool):
+                del self._unknown[key]
+                self._judge(op, value, rb.errors)
+
+    def _judge(self, op: Operation, position: int, errors: set[str]) -> None:
+        expected, before = op.expected_end, op.position_before
+        seen = f"read back when the controller answered again: {position} pulses"
+        if position == expected:
+            self._resolve(op, OperationState.DONE, None, position)
+        elif position == before:
+            error = OperationError.of(
+                "device", "Not done", f"{seen}, where it started: not carried out", "not_done"
+            )
+            self._resolve(op, OperationState.FAILED, error, position)
+        elif errors:
+            error = _LIMIT if "limit_error" in errors else _EMERGENCY
+            self._resolve(op, OperationState.FAILED, error, position)
+        elif op.error is not None:
+            # Neither the start nor the end: it moved and stopped short; nobody can tell why.
+            detail = f"{op.error.detail}; {seen}, neither the start {before} nor the end {expected}"
+            error = op.error.model_copy(update={"detail": detail})
+            self._resolve(op, OperationState.UNKNOWN, error, position)
+
+
+@dataclass
+class _ReadBack:
+    """An ``unknown`` operation waiting for its controller to answer again."""
+
+    op: Operation
+    settled: bool = False  # a status read has shown no motion since
+    reading: bool = False  # a position read was asked for
+    errors: set[str] = field(default_factory=set)
