@@ -188,6 +188,10 @@ class MotionWatch:
 
     # ------------------------------------------------------------------ read back
 
+    def waiting(self) -> list[Operation]:
+        """The ``unknown`` operations waiting to be read back."""
+        return [rb.op for rb in self._unknown.values()]
+
     def read_back_later(self, op: Operation) -> None:
         """``op`` ended ``unknown``: judge it once its controller answers again (a status read
         that shows no motion, then a position read of its motor, against the pre-read)."""

@@ -77,6 +77,10 @@ class Operations:
                     break
         return out
 
+    def unresolved(self) -> tuple[Operation, ...]:
+        """The ``unknown`` operations still waiting for their controller to answer again."""
+        return tuple(self._watch.waiting())
+
     def active(self, loop: str, body: str) -> Operation | None:
         """The operation not yet ended on controller ``loop.body``, if any."""
         return self._active.get((loop, body))
