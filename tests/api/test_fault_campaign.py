@@ -161,6 +161,5 @@ def print_figures(
         f"{counters.verifications} read-backs {dict(faults)}"
     )
     for op in unsure:  # every move not reported done, with its reason
-        print(
-            f"  {op.state.value} {op.id} {op.axis.id} step {op.step}: {op.error.detail if op.error else ''}"
-        )
+        reason = op.error.detail if op.error else ""
+        print(f"  {op.state.value} {op.id} {op.axis.id} step {op.step}: {reason}")
