@@ -95,7 +95,7 @@ class LoopLifecycle:
         )
         self._core.serve_stops = self._serve_stops
         self._wake = asyncio.Event()
-        self._queue = RequestQueue(self.name, clock, self._queued)
+        self._queue = RequestQueue(self.name, clock, self._queued, aging=config.poll_aging_real)
         self.state = LinkState.CONNECTING
         self.cause = "not connected yet"
         self._backoff = config.reconnect_initial_real

@@ -3,7 +3,8 @@
 ========== ====================================== ===============================================
 job        commands                               when
 ========== ====================================== ===============================================
-status     ``""``; moving: ``""`` ``6{mt}``       ``moving_period`` while a motor moves, else
+status     ``""``; moving: ``""`` ``6{mt}``,      ``moving_period`` while a motor moves (the
+           then ``6{mt}`` alone, in turn          status every other time), else
                                                   ``idle_period``; at once after a move starts
 settle     ``6{mt}`` ``CLM{mt}``                  at once when a move has ended (final position)
 sensors    ``CLM1`` ``CLM2``; moving: ``CL``      ``sensor_period``
@@ -71,6 +72,7 @@ class BodyPlan:
     online: bool | None = None
     probe_delay: float = 0.0
     moving: bool = False  # as the poller's last status read saw it
+    moving_polls: int = 0  # polls of a moving controller: every other one reads the status
     ran_due: float = 0.0  # the due time of the job running (or run last)
     deferred: list[str] = field(default_factory=list)  # reads refused while moving, to do
 

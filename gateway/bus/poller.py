@@ -184,11 +184,18 @@ class Poller:
         motor = ctl.selected_motor or ctl.last_moved or 1
         if job is Job.IDENTIFY:
             await self._identify(plan)
+        elif job is Job.STATUS_MOVING and plan.moving and plan.moving_polls % 2:
+            # The position every moving period, the status every other one (100 ms: EMS and
+            # limits within one status poll), so that one moving axis among 15 controllers
+            # still gets its 15 position reads a second on a 9600 bps line.
+            plan.moving_polls += 1
+            await self._poll(plan, f"6{motor}")
         elif job in (Job.STATUS, Job.STATUS_MOVING, Job.PROBE):
             # While a motor moves it is the selected one (F is refused, §10 F): an unconfirmed
             # selection is read back with 97 in the same transaction.
             confirm = [] if ctl.selection_confirmed else ["97"]
             moving = [*confirm, f"6{motor}"] if plan.moving and job is not Job.PROBE else []
+            plan.moving_polls = 1 if moving else 0
             if await self._poll(plan, "", *moving) and not plan.moving and plan.deferred:
                 await self._poll(plan, *plan.deferred)
         elif job is Job.SETTLE:  # the move has ended: its final position and sensors

@@ -75,9 +75,19 @@ class Request:
 class RequestQueue:
     """Requests by priority, then arrival; see the module's text."""
 
-    def __init__(self, name: str, clock: Callable[[], float], on_put: Callable[[], None]) -> None:
+    def __init__(
+        self,
+        name: str,
+        clock: Callable[[], float],
+        on_put: Callable[[], None],
+        *,
+        aging: float | None = None,
+    ) -> None:
         self._name = name
         self._clock = clock
+        #: host seconds after which a waiting poll is lifted to operator priority (keeping
+        #: its place in line): a steady stream of operator requests never starves the polls
+        self._aging = aging
         self._on_put = on_put
         self._heap: list[tuple[int, int, Request]] = []
         self._seq = 0
@@ -157,6 +167,28 @@ class RequestQueue:
             heapq.heappop(self._heap)
             self._forget_if_dead(request)
 
+    def _age(self) -> None:
+        if self._aging is None:
+            return
+        old = self._clock() - self._aging
+        for entry in list(self._heap):
+            priority, _, request = entry
+            if (
+                priority == Priority.POLL == request.priority
+                and request.live
+                and min(w.since for w in request.waiters) <= old
+            ):
+                self._lift(entry)
+
+    def _lift(self, entry: tuple[int, int, Request]) -> None:
+        """A request passed over because it had to wait goes, once it may, before anything
+        of its controller queued after it: a poll waiting for a motion to end is lifted to
+        operator priority and keeps its place, so the next move does not starve it."""
+        priority, seq, request = entry
+        if priority > Priority.OPERATOR:
+            request.priority = Priority.OPERATOR
+            heapq.heappush(self._heap, (int(Priority.OPERATOR), seq, request))
+
     def head_priority(self) -> Priority | None:
         """The priority of the next request, None when the queue is empty."""
         self._clean()
@@ -170,6 +202,7 @@ class RequestQueue:
         ``blocked(request)``: it cannot go now (it stays queued, bounded by its deadline) and
         the next one is taken instead.
         """
+        self._age()
         self._clean()
         if not self._heap or (only is not None and self._heap[0][0] != only):
             return None
@@ -181,6 +214,10 @@ class RequestQueue:
                 if e[2].live and e[0] == e[2].priority and (only is None or e[0] == only)
             ]
             entry = next((e for e in ready if not blocked(e[2])), None)
+            for waiting in ready:
+                if waiting is entry:
+                    break
+                self._lift(waiting)
             if entry is None:
                 return None
             self._heap.remove(entry)

@@ -118,7 +118,7 @@ async def move(r: Rig, body: str, motor: int, target: int) -> None:
 async def test_moving_axis_gets_15_position_reads_a_second_among_15_controllers(
     rig: Callable[..., Rig],
 ) -> None:
-    r = await rig(ALL_BODIES, scale=4.0)
+    r = await rig(ALL_BODIES, scale=1.0)
     # Every controller identified from the device first (V read on the line).
     await r.identified(ALL_BODIES)
     assert all(r.state.controller(LOOP, b).version for b in ALL_BODIES)
