@@ -22,7 +22,7 @@ CUT_SCALE = 2.0
 CUT_HOLD = 8.0
 #: The EMS tests' simulator speed, and how soon EMS must be seen: one idle status poll
 #: period (1 s) and the transaction in flight when it came due.
-EMS_SCALE = 5.0
+EMS_SCALE = 2.0
 EMS_SEEN_WITHIN = 1.3
 
 
@@ -118,7 +118,7 @@ async def test_a_dead_loop_is_not_a_moving_axis() -> None:
 
 
 async def test_ems_on_an_idle_controller_is_seen_within_one_status_poll() -> None:
-    async with running_app() as api:
+    async with running_app(scale=EMS_SCALE) as api:
         await api.identified()
         pressed_at = api.sim.act(lambda now: api.device("2").set_ems(now, True))
         await api.until(lambda: api.gateway.state.axis(SIM_LOOP, "2", 1).emergency)
