@@ -125,7 +125,11 @@ class _Reading:
         if flags.moving and not ctl.moving and ctl.selected_motor is not None:
             self.ctl(last_moved=ctl.selected_motor)
         self.ctl(status=flags, moving=flags.moving)
-        self.latch(k for name, k in _STATUS_KINDS.items() if getattr(flags, name))
+        kinds = {k for name, k in _STATUS_KINDS.items() if getattr(flags, name)}
+        self.latch(kinds)
+        # The condition store keeps these until a 9 form I read (§10 9 ③): not new then.
+        seen = self.cache.status_since_condition
+        seen[self.loop, self.body] = seen.get((self.loop, self.body), frozenset()) | kinds
         for m in MOTORS:
             self.axis(m, updated=self.now, stale=False)
 
@@ -141,7 +145,12 @@ class _Reading:
             selection_confirmed=True,
             condition_bits=MappingProxyType(bits),
         )
-        kinds = [k for name, k in _STATUS_KINDS.items() if getattr(flags, name)]
+        # Bits 1-3 that "" already reported since the last form I read are the same errors
+        # again (two stores of one event, §10 9 ③), not new ones: latched once.
+        reported = self.cache.status_since_condition.pop((self.loop, self.body), frozenset())
+        kinds = [
+            k for name, k in _STATUS_KINDS.items() if getattr(flags, name) and k not in reported
+        ]
         self.latch([ErrorKind.COMMUNICATION] * flags.communication_error + kinds)
 
     def number(self, ctl: ControllerState, value: int) -> None:

@@ -81,6 +81,9 @@ class StateCache(ChangeLog):
         self._ctls: dict[tuple[str, str], ControllerState] = {}
         self._axes: dict[tuple[str, str, int], AxisState] = {}
         self._counters_published: dict[str, float] = {}
+        #: per controller, the errors ``""`` reported since the last ``9`` form I read (the
+        #: controller holds them in both stores, §10 9 ③: ``readings``)
+        self.status_since_condition: dict[tuple[str, str], frozenset[ErrorKind]] = {}
         self.counters_period = 1.0
 
     # ------------------------------------------------------------------ reading

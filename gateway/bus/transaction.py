@@ -38,6 +38,7 @@ from gateway.bus.verify import (
 from gateway.protocol.framing import Framing, framing_switch
 from gateway.protocol.models import Command
 from gateway.protocol.program import Program
+from gateway.protocol.registry import parse
 from gateway.protocol.replies import ReplyValue
 from gateway.protocol.reply_values import StatusFlags
 from gateway.protocol.spec import ReplyFormat
@@ -46,6 +47,9 @@ __all__ = ["FLAG_CLEARING_FORMS", "TransactionRunner"]
 
 #: Forms that clear latched device errors as a side effect, without reporting them (§10 K).
 FLAG_CLEARING_FORMS = frozenset({"K{dt},{du}{dl}", "K{dt},{bt}", "KC"})
+#: The error bits ``""`` and ``9`` (form I) clear live in two stores, one per read (§10 9 ③):
+#: after a lost reply to one, the other still reports them.
+_OTHER_STORE = {'""': parse("9"), "9": parse("")}
 
 
 class TransactionRunner:
@@ -251,6 +255,14 @@ class TransactionRunner:
         elif command.reply_format is ReplyFormat.ACK_THEN_DONE:
             outcome = await hold_for_write(core, self.body, command, st.mark, seen)
             how = "waited for $B#*"
+        elif command.key in _OTHER_STORE:
+            # The lost reply cleared error bits nobody saw (an EMS, a limit). The controller
+            # keeps them in a second store too (§10 "" and §10 9 ③): read that one now, so
+            # the state cache latches them at once rather than never.
+            other = _OTHER_STORE[command.key]
+            seen["errors_read"] = await self._query(other)
+            shown = other.wire() or '""'
+            outcome, how = Outcome.UNKNOWN, f"read {shown} for the errors it cleared"
         else:
             outcome, how = Outcome.UNKNOWN, "nothing reads it back"
         return st.result(kind, outcome, f"reply lost; {how}")
