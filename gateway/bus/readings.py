@@ -113,6 +113,10 @@ class _Reading:
             self.ctl(selected_motor=moved, last_moved=moved, selection_confirmed=False, moving=True)
         elif key[:-1] in ("EE", "EL", "ER", "SUM") and key[-1:] in "01":
             self.framing(key[:-1], key[-1] == "1")
+        elif key in ("EP0", "EP1"):
+            self.ctl(signed_positions=key == "EP1")
+        elif key == "DL":  # the settings, EP among them, reloaded from the EEPROM (§10 DL)
+            self.ctl(signed_positions=None)
 
     def framing(self, switch: str, on: bool) -> None:
         names = {"EE": "echo", "EL": "cr_after_ack", "ER": "error_mark", "SUM": "checksum"}
@@ -163,6 +167,8 @@ class _Reading:
             self.condition_bit(ctl, int(self.command.params()["bit"]), value)
         elif key == "E":
             self.ctl(mode=value)
+        elif key == "EP" and value in (0, 1):
+            self.ctl(signed_positions=value == 1)
         elif key == "F":
             self.ctl(selected_motor=value, selection_confirmed=True)
         elif key in ("EE", "EL", "ER", "SUM"):
