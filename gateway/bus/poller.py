@@ -261,7 +261,12 @@ class Poller:
 
     def _answered(self, plan: BodyPlan, result: TransactionResult) -> bool:
         """Count a poll nobody answered; mark the controller offline or online."""
-        silent = all(r.kind in (ReplyKind.TIMEOUT, ReplyKind.SKIPPED) for r in result.results)
+        # A lost status reply is followed by a read of the other error store: if that one
+        # was answered, the controller answers (one reply lost on the line is not "off").
+        silent = all(
+            r.kind in (ReplyKind.TIMEOUT, ReplyKind.SKIPPED) and r.seen.get("errors_read") is None
+            for r in result.results
+        )
         now = self.now()
         if silent:
             plan.misses += 1
