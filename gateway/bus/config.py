@@ -44,7 +44,7 @@ class LoopConfig:
     #: often (device seconds) whether it answers again (``LoopLifecycle._answered``)
     probe_period: float = 0.25
     reconnect_initial_real: float = 0.1
-    reconnect_max_real: float = 5.0
+    reconnect_max_real: float = 1.0  # a line back is ready within about this (plus a probe)
     #: real seconds after which a waiting poll goes with the operator requests, in its place
     #: (a stream of operator requests must not starve the status polls)
     poll_aging_real: float | None = 1.0
