@@ -155,6 +155,12 @@ class TransactionRunner:
             sent = await core.send(body, command, self.motor)
             st.attempts += 1
             if sent.kind is ReplyKind.NOT_ACCEPTED:
+                if is_motion(command):
+                    # On a noisy line a '>' one bit off reads '?' (0x3E, 0x3F): a motion is
+                    # sent again only once a read-back shows it did not run (invariant 6).
+                    checked = await self._verify(st, sent.kind, "'?'")
+                    if checked.outcome is not Outcome.NOT_DONE:
+                        return checked
                 if self._again_after_nak(st):
                     continue
                 return st.result(sent.kind, Outcome.NOT_DONE, sent.note)
@@ -225,8 +231,8 @@ class TransactionRunner:
             outcome = await hold_for_write(self.core, self.body, command, st.mark, st.seen)
         return st.result(sent.kind, outcome, note, value=sent.value, late=sent.late)
 
-    async def _verify(self, st: _Step, kind: ReplyKind) -> CommandResult:
-        """The reply of a command that must not be sent again was lost: read back."""
+    async def _verify(self, st: _Step, kind: ReplyKind, why: str = "reply lost") -> CommandResult:
+        """The reply of a command that must not be sent again was lost (or bent): read back."""
         core, command, seen = self.core, st.command, st.seen
         core.counters.verifications += 1
         if is_motion(command):
@@ -265,7 +271,7 @@ class TransactionRunner:
             outcome, how = Outcome.UNKNOWN, f"read {shown} for the errors it cleared"
         else:
             outcome, how = Outcome.UNKNOWN, "nothing reads it back"
-        return st.result(kind, outcome, f"reply lost; {how}")
+        return st.result(kind, outcome, f"{why}; {how}")
 
 
 @dataclass
