@@ -30,12 +30,15 @@ from gateway.protocol.spec import Effect
 from gateway.service.gateway import Gateway
 from gateway.service.operation_types import FINAL, Operation, OperationError, OperationState
 
-__all__ = ["FINAL_READ_WAIT", "MotionWatch"]
+__all__ = ["FINAL_READ_WAIT", "READ_BACK_HOLD", "MotionWatch"]
 
 log = logging.getLogger("gateway.service")
 
 #: Host seconds to wait for the poller's position read after the end before reading it here.
 FINAL_READ_WAIT = 0.5
+#: Host seconds a new motion on a controller waits (409) for the read-back of an ``unknown``
+#: operation there, so that the read-back judges that operation and not the next one.
+READ_BACK_HOLD = 2.0
 
 _LIMIT = OperationError(
     kind="limit_error",
@@ -139,16 +142,26 @@ class MotionWatch:
         if op.state in FINAL:
             return
         op.position = position
-        expected = op.expected_end
-        if (
-            "command_error" in op.errors
-            and position is not None
-            and position == expected
-            and position != op.position_before
-        ):
-            # The axis reached the end of this motion: it was carried out, so the command
-            # error the device latched meanwhile was raised by another command, not this one.
-            op.errors.discard("command_error")
+        if self._reached(op, position):
+            # The axis stands at the end of this motion: it was carried out. An error the
+            # device latched meanwhile (another command's, or a status reply bent on the
+            # line) stays on the controller for clients to see; it is not this motion's.
+            self._end(op, OperationState.DONE, None)
+            return
+        if self._short(op) and not op.rechecked:
+            # Short of its end and no error seen: the status read that showed the stop may
+            # have been bent on the line. Read again before judging.
+            op.rechecked = True
+            flags, position = await self._recheck(op)
+            if op.state in FINAL:
+                return
+            if flags is not None and flags.moving:
+                op.ending = None  # still turning: the next status read that shows the stop
+                return
+            op.position = position if position is not None else op.position
+            if self._reached(op, op.position):
+                self._end(op, OperationState.DONE, None)
+                return
         if "limit_error" in op.errors:
             self._end(op, OperationState.FAILED, _LIMIT)
         elif "emergency_stop" in op.errors:
@@ -160,8 +173,48 @@ class MotionWatch:
             if op.target is not None:
                 detail += f", before its target {op.target}"
             self._end(op, OperationState.FAILED, OperationError.of("stopped", "Stopped", detail))
+        elif self._short(op) and op.position is not None:
+            detail = (
+                f"the {op.kind} ended at {op.position} pulses, not at its end "
+                f"{op.expected_end}, and the controller reported no error"
+            )
+            error = OperationError.of("not_reached", "Target not reached", detail, "not_done")
+            self._end(op, OperationState.FAILED, error)
         else:
             self._end(op, OperationState.DONE, None)
+
+    @staticmethod
+    def _reached(op: Operation, position: int | None) -> bool:
+        """At the end of its motion, and away from where it started."""
+        return (
+            position is not None and position == op.expected_end and position != op.position_before
+        )
+
+    @staticmethod
+    def _short(op: Operation) -> bool:
+        """A move or step that ended elsewhere than its end, with no error and no stop."""
+        return (
+            op.kind in ("move", "step")
+            and op.expected_end is not None
+            and op.position != op.expected_end
+            and not op.errors
+            and not op.stop_requested
+        )
+
+    async def _recheck(self, op: Operation) -> tuple[StatusFlags | None, int | None]:
+        """The status and the position of ``op``'s axis, read now."""
+        try:
+            result = await self.gateway.scheduler(op.axis.loop).submit(
+                op.axis.body, [parse(""), parse(f"6{op.motor}")]
+            )
+        except Exception as exc:
+            log.info("operation %s: end not read again: %s", op.id, exc)
+            return None, None
+        flags, position = (r.value for r in result.results)
+        return (
+            flags if isinstance(flags, StatusFlags) else None,
+            position if isinstance(position, int) and not isinstance(position, bool) else None,
+        )
 
     async def _read_position(self, op: Operation) -> int | None:
         try:
@@ -197,7 +250,20 @@ class MotionWatch:
         that shows no motion, then a position read of its motor, against the pre-read)."""
         if op.position_before is None or op.expected_end is None:
             return  # nothing to compare a read-back with: it stays unknown, with its reason
-        self._unknown[op.axis.loop, op.axis.body] = _ReadBack(op)
+        rb = _ReadBack(op, since=asyncio.get_running_loop().time())
+        self._unknown[op.axis.loop, op.axis.body] = rb
+        rb.reading = True  # ask now: the poller's next status read may be a second away
+        task = asyncio.ensure_future(self._recheck(op))
+        self._tasks.add(task)
+        task.add_done_callback(self._tasks.discard)
+
+    def reading_back(self, loop: str, body: str) -> Operation | None:
+        """The ``unknown`` operation of ``loop.body`` being read back right now (for at most
+        ``READ_BACK_HOLD`` s): a new motion would make its read-back meaningless."""
+        rb = self._unknown.get((loop, body))
+        if rb is None or asyncio.get_running_loop().time() - rb.since > READ_BACK_HOLD:
+            return None
+        return rb.op
 
     def _read_back(self, rb: _ReadBack, event: ReplyObserved) -> None:
         op, value = rb.op, event.value
@@ -251,6 +317,7 @@ class _ReadBack:
     """An ``unknown`` operation waiting for its controller to answer again."""
 
     op: Operation
+    since: float = 0.0  # host time the follow-up started
     settled: bool = False  # a status read has shown no motion since
     reading: bool = False  # a position read was asked for
     errors: set[str] = field(default_factory=set)

@@ -46,8 +46,8 @@ class OperationError(BaseModel):
     """Why an operation failed or is unknown, problem-like."""
 
     kind: str = Field(
-        description="limit_error, emergency_stop, command_error, stopped, device, loop_down, "
-        "offline, refused"
+        description="limit_error, emergency_stop, command_error, stopped, not_reached, device, "
+        "loop_down, offline, refused"
     )
     title: str
     detail: str
@@ -116,6 +116,7 @@ class Operation:
     step: int | None = None
     #: the position read right before the motion command was sent (the scheduler's pre-read)
     position_before: int | None = None
+    rechecked: bool = False  # the end was read again once (a status reply may be bent)
 
     @property
     def expected_end(self) -> int | None:

@@ -122,6 +122,13 @@ class Operations:
                 "in progress (§2: its two motors never move together)",
                 field="axis",
             )
+        unsure = self._watch.reading_back(*key)
+        if unsure is not None:
+            raise ConflictError(
+                f"controller {axis.controller_id}: the outcome of operation {unsure.id} is "
+                "being read back; a motion now would make it unknowable",
+                field="axis",
+            )
         op = Operation(
             id=f"op-{next(self._ids)}-{int(time.time() * 1000) % 100_000_000:08d}",
             axis=axis,

@@ -31,7 +31,7 @@ async def test_an_unknown_move_is_resolved_done_when_the_controller_answers_agai
         ident = move.json()["id"]
         # The controller carries out the move but its next replies are lost: the poller
         # marks it offline and the operation cannot be known ...
-        api.sim.faults.add(FaultRule(FaultKind.DROP, shots=4, body="1"))
+        api.sim.faults.add(FaultRule(FaultKind.DROP, shots=12, body="1"))
         op = api.operations.get(ident)
         await api.until(lambda: "unknown" in operation_states(api, ident))
         unknown: dict[str, Any] = dict(op.view().model_dump(mode="json"))
