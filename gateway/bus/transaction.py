@@ -118,6 +118,17 @@ class TransactionRunner:
         sent = await self._send_retrying(command, self.motor)
         return sent.value if sent.kind is ReplyKind.DATA else None
 
+    async def _position(self, motor: int | None) -> int | None:
+        """The position read twice (three times when they differ): without a checksum a
+        reply bent on the line can still decode, and every verdict on the motion rests on
+        this pre-read. None when no two reads agree."""
+        query = position_query(motor)
+        first, second = await self._query(query), await self._query(query)
+        if first != second:
+            third = await self._query(query)
+            first = third if third in (first, second) else None
+        return first if isinstance(first, int) and not isinstance(first, bool) else None
+
     async def _confirm(self, motor: int) -> bool:
         """After '>' to F{m}: is m selected? (F is refused while a motor moves, §10 F)."""
         core = self.core
@@ -186,8 +197,7 @@ class TransactionRunner:
             # (DESIGN invariant 4).
             st.seen["status_before"] = await self._query(status_query())
         if is_motion(command):  # right before every send of the move
-            value = await self._query(position_query(self._axis(command)))
-            st.before_pos = value if isinstance(value, int) else None
+            st.before_pos = await self._position(self._axis(command))
             st.seen["position_before"] = st.before_pos
         if st.check is not None and st.before_value is None:
             st.before_value = await self._query(st.check.query)

@@ -174,12 +174,14 @@ class MotionWatch:
                 detail += f", before its target {op.target}"
             self._end(op, OperationState.FAILED, OperationError.of("stopped", "Stopped", detail))
         elif self._short(op) and op.position is not None:
+            # Either the motion stopped short for a reason nobody reported, or a reply bent
+            # on the line (the pre-read) gave a wrong end: the gateway cannot tell.
             detail = (
-                f"the {op.kind} ended at {op.position} pulses, not at its end "
-                f"{op.expected_end}, and the controller reported no error"
+                f"the {op.kind} ended at {op.position} pulses, not at the end {op.expected_end} "
+                f"its pre-read ({op.position_before}) gives, and the controller reported no error"
             )
-            error = OperationError.of("not_reached", "Target not reached", detail, "not_done")
-            self._end(op, OperationState.FAILED, error)
+            error = OperationError.of("not_reached", "Target not reached", detail, "unknown")
+            self._end(op, OperationState.UNKNOWN, error)
         else:
             self._end(op, OperationState.DONE, None)
 

@@ -69,7 +69,7 @@ async def test_a_garbled_ack_that_reads_as_nak_never_moves_a_motor_twice(
     start = bus.position("1", 1)
     bus.sim.faults.rng = _FirstBit()
     # The controller takes the move; its '>' (0x3E) reaches the host one bit off: '?' (0x3F).
-    bus.once_after("61", lambda: bus.fault(FaultKind.GARBLE, body="1"))
+    bus.once_after("61", lambda: bus.fault(FaultKind.GARBLE, body="1"), nth=2)
     result = await bus.scheduler.submit("1", [parse("2300"), parse("41")])
     await bus.wait_idle()
     assert bus.position("1", 1) == start + 300  # once, not twice
