@@ -80,7 +80,7 @@ async def client(
         busy = api.operations.active("sim", body)
         if kind == "move" and response.status_code == 409 and busy is not None:
             await busy.finished.wait()  # as a client would: wait for the other motor
-        assert response.status_code < 500 or response.status_code in (503, 504), response.text
+        assert response.status_code != 500, response.text  # answered, never a defect
 
 
 def still_moving(api: Api) -> list[str]:
