@@ -27,7 +27,7 @@ from gateway.api import (
     routes_session,
     ws,
 )
-from gateway.api.audit import AuditLog, install_audit
+from gateway.api.audit import AuditLog, install_audit, resolution_entry
 from gateway.api.body_gate import BodyGate
 from gateway.api.dashboard import install_dashboard
 from gateway.api.hardening import HardeningMiddleware
@@ -76,6 +76,7 @@ def create_app(gateway: Gateway, *, auth: AuthConfig) -> FastAPI:
     audit = AuditLog(gateway.config.audit_log)
     leases = Leases()
     operations = Operations(gateway)
+    operations.on_resolved(lambda op: audit.record(resolution_entry(op, API_PREFIX)))
     feed = Feed(gateway.topology, gateway.state, gateway.events, gateway.config.ws)
 
     install_log_redaction()  # no token in any log line, whoever prints it

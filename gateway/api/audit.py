@@ -30,6 +30,7 @@ from gateway.api.problems import PROBLEM_RESPONSES
 from gateway.api.redaction import redact
 from gateway.api.security import Principal, principal_of, require
 from gateway.errors import InvalidInputError
+from gateway.service.operation_types import Operation
 from gateway.service.roles import Role
 
 __all__ = [
@@ -40,6 +41,7 @@ __all__ = [
     "AuditPage",
     "audit_note",
     "install_audit",
+    "resolution_entry",
     "router",
 ]
 
@@ -57,6 +59,21 @@ _CORE = frozenset(
 def utc_now() -> str:
     """Now as ISO 8601 UTC with milliseconds (``2025-01-31T12:00:00.000Z``)."""
     return datetime.now(UTC).isoformat(timespec="milliseconds").replace("+00:00", "Z")
+
+
+def resolution_entry(op: Operation, prefix: str) -> dict[str, Any]:
+    """The entry of an ``unknown`` operation resolved by reading the axis back (no request
+    made it: the gateway did, when the controller answered again)."""
+    return {
+        "time": utc_now(),
+        "token": op.holder,
+        "method": "RESOLVE",
+        "path": f"{prefix}/operations/{op.id}",
+        "event": "operation_resolved",
+        "position_before": op.position_before,
+        "position_after": op.position,
+        "operation": op.view().model_dump(mode="json"),
+    }
 
 
 def audit_note(request: Request, **fields: Any) -> None:

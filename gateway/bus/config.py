@@ -40,8 +40,14 @@ class LoopConfig:
     erase_hold: float = 21.0
     #: this many time-outs in a row with no byte received at all: the line is taken as gone
     timeouts_to_down: int = 8
+    #: while down with the port open: every controller that answered before is asked this
+    #: often (device seconds) whether it answers again (``LoopLifecycle._answered``)
+    probe_period: float = 0.25
     reconnect_initial_real: float = 0.1
-    reconnect_max_real: float = 5.0
+    reconnect_max_real: float = 1.0  # a line back is ready within about this (plus a probe)
+    #: real seconds after which a waiting poll goes with the operator requests, in its place
+    #: (a stream of operator requests must not starve the status polls)
+    poll_aging_real: float | None = 1.0
     #: real seconds a request may wait to start, per priority (None: no limit; stops)
     deadlines_real: Mapping[Priority, float | None] = field(default_factory=lambda: _DEADLINES)
     #: SUM1 at the first contact after the link comes up, for lines with noise (§10 SUM)

@@ -25,7 +25,7 @@ from gateway.bus.events import (
 from gateway.bus.framing_track import FramingTracker, hint_from_reply
 from gateway.bus.link import Link, LinkLost
 from gateway.bus.requests import ReplyKind
-from gateway.bus.selection import SelectionCache, selection_from_reply
+from gateway.bus.selection import SelectionCache, confirm_command, selection_from_reply
 from gateway.bus.timing import Timing, reply_chars
 from gateway.errors import ReplyFormatError
 from gateway.protocol.framing import Framing, encode_command, framing_switch
@@ -47,6 +47,9 @@ from gateway.protocol.reply_parser import (
 from gateway.protocol.spec import ReplyFormat, Scope
 
 __all__ = ["DOUBT", "FRAMING_KEYS", "LoopCore", "Sent", "decode_for"]
+
+#: What the scheduler reads to learn whether a controller answers (``LoopCore.probe``).
+_PROBE = confirm_command()
 
 #: Kinds after which nobody knows what the controller did or how it is set up.
 DOUBT = frozenset({ReplyKind.TIMEOUT, ReplyKind.GARBLED, ReplyKind.CHECKSUM})
@@ -106,6 +109,12 @@ class LoopCore:
         self.serve_stops: Callable[[], Awaitable[None]] | None = None
         #: controllers whose framing read-back failed since the link came up (not retried)
         self.detect_failed: set[str] = set()
+        #: controllers that have answered on this loop (kept across reconnects: the line is
+        #: only up again when one of them answers, ``LoopLifecycle``)
+        self.answering: set[str] = set()
+        #: controllers that timed out in silence since the last byte heard: when it covers
+        #: every answering controller, the line is gone, not one controller (``_check_health``)
+        self.silent: set[str] = set()
 
     # ------------------------------------------------------------------ bookkeeping
 
@@ -166,6 +175,38 @@ class LoopCore:
 
     async def send(self, body: str, command: Command, motor: int | None = None) -> Sent:
         """Send ``command`` once and classify its reply; ``LinkLost`` if the line goes."""
+        sent = await self._send(body, command, motor)
+        self.check_health(body)
+        return sent
+
+    def needs_probe(self) -> str | None:
+        """After a time-out in silence: a controller to read now (None: no need).
+
+        First those that answer and have not been silent since: if one answers, one
+        controller is silent, not the line. Then round the silent ones until
+        ``timeouts_to_down``, so a cut line goes down within a few time-outs rather than
+        after the poller's backoff for offline controllers.
+        """
+        silent = self.link.silent_timeouts
+        if not silent or not self.answering:
+            return None
+        others = sorted(self.answering - self.silent)
+        if others:
+            return others[0]
+        every = sorted(self.answering)
+        return every[silent % len(every)]
+
+    async def probe(self, body: str) -> bool:
+        """Read ``97`` of ``body`` (clears nothing, allowed while a motor moves, §10 9): True
+        when any byte came back. Never takes the line down (``LinkLost`` only if the port goes)."""
+        heard = self.link.heard_any
+        self.link.heard_any = False
+        await self._send(body, _PROBE, None)
+        answered = self.link.heard_any
+        self.link.heard_any = heard or answered
+        return answered
+
+    async def _send(self, body: str, command: Command, motor: int | None) -> Sent:
         framing = self.framing.get(body)
         series = self.config.series_of(body)
         text = command.wire()
@@ -184,7 +225,11 @@ class LoopCore:
         self.counters.exchanges += 1
         sent = self._classify(body, command, exchange.event, reply_framing, motor, exchange.late)
         self._after(body, command, sent, framing, motor)
-        self._check_health(body)
+        if exchange.heard:
+            self.silent.clear()
+            self.answering.add(body)
+        elif sent.kind is ReplyKind.TIMEOUT:
+            self.silent.add(body)
         return sent
 
     def _classify(
@@ -254,14 +299,14 @@ class LoopCore:
             if changed is not False:
                 self.set_selection(body, changed if isinstance(changed, int) else None)
 
-    def _check_health(self, body: str) -> None:
+    def check_health(self, body: str) -> None:
         """Too many time-outs in a row with no byte at all: the line is gone (half-open)."""
         if self.deaf_until.get(body, 0.0) > self.clock():
             self.link.silent_timeouts = 0  # a controller erasing its EEPROM is silent on purpose
             return
         limit = self.config.timeouts_to_down
-        if self.link.silent_timeouts >= limit:
-            cause = f"{limit} time-outs in a row with no byte received"
+        if self.link.silent_timeouts >= limit and self.answering <= self.silent:
+            cause = f"every controller silent: {limit} time-outs in a row with no byte received"
             self.link.lose(cause)
             raise LinkLost(cause)
 

@@ -137,9 +137,18 @@ class EventBus(Generic[EventT]):
         #: events dropped because a queue subscriber fell behind (oldest dropped first)
         self.dropped = 0
 
-    def subscribe(self, callback: Callable[[EventT], None]) -> Callable[[], None]:
-        """Call ``callback(event)`` for every event from now on; returns the unsubscriber."""
-        self._callbacks.append(callback)
+    def subscribe(
+        self, callback: Callable[[EventT], None], *, first: bool = False
+    ) -> Callable[[], None]:
+        """Call ``callback(event)`` for every event from now on; returns the unsubscriber.
+
+        ``first``: before every other subscriber, whenever they subscribed (the state cache:
+        what a subscriber reads there has always learnt the event it is handed).
+        """
+        if first:
+            self._callbacks.insert(0, callback)
+        else:
+            self._callbacks.append(callback)
 
         def unsubscribe() -> None:
             if callback in self._callbacks:

@@ -34,6 +34,8 @@ from gateway.bus.link import Link, LinkLost
 from gateway.bus.programs_seen import ProgramsSeen
 from gateway.bus.queue import Request, RequestQueue
 from gateway.bus.requests import LoopDown, Priority, TransactionResult
+from gateway.bus.selection import needs_selection
+from gateway.bus.state import StateCache
 from gateway.bus.timing import Timing
 from gateway.bus.trace import LineTrace
 from gateway.bus.transaction import TransactionRunner
@@ -97,7 +99,7 @@ class LoopLifecycle:
         )
         self._core.serve_stops = self._serve_stops
         self._wake = asyncio.Event()
-        self._queue = RequestQueue(self.name, clock, self._queued)
+        self._queue = RequestQueue(self.name, clock, self._queued, aging=config.poll_aging_real)
         self.state = LinkState.CONNECTING
         self.cause = "not connected yet"
         self._backoff = config.reconnect_initial_real
@@ -107,6 +109,8 @@ class LoopLifecycle:
         #: set while no transaction is in flight (graceful shutdown waits on it)
         self._idle = asyncio.Event()
         self._idle.set()
+        #: the state cache the scheduler feeds first and reads (``use_state``)
+        self.state_cache: StateCache | None = None
 
     def snapshot(self) -> CountersSnapshot:
         """The loop's counters now."""
@@ -121,6 +125,29 @@ class LoopLifecycle:
 
     def _wake_up(self) -> None:
         self._wake.set()
+
+    def down_error(self) -> LoopDown:
+        """The error of a request refused because the loop is not up (with its retry hint)."""
+        return self._down_error()
+
+    def use_state(self, state: StateCache) -> None:
+        """Feed ``state`` with every event before any other subscriber, and read from it
+        what the controllers do (the one home of that knowledge)."""
+        self.state_cache = state
+        self.events.subscribe(lambda e: state.handle(e, queue_depth=len(self._queue)), first=True)
+
+    def _must_wait(self, request: Request) -> bool:
+        """A per-motor request whose F would be refused now: a motor of its controller moves
+        (§10 F, 動作中 ×) and another motor, or an unknown one, is selected. It waits (its
+        deadline bounds that); the status polls tell when the motion has ended."""
+        state = self.state_cache
+        if state is None or request.motor is None:
+            return False
+        if not state.controller(self.name, request.body).moving:
+            return False
+        if self._core.selection.get(request.body) == request.motor:
+            return False
+        return any(needs_selection(c) for c in request.commands)
 
     def _down_error(self, *, in_flight: bool = False) -> LoopDown:
         retry = None
@@ -144,7 +171,9 @@ class LoopLifecycle:
                 if await self._connect():
                     self._first_attempt.set()
                     try:
-                        await self._serve()
+                        if await self._answered():
+                            self._go_up()
+                            await self._serve()
                     except LinkLost as exc:
                         await self._go_down(exc.cause)
                     except Exception as exc:  # a defect: fail the callers, reopen, go on
@@ -178,13 +207,43 @@ class LoopLifecycle:
         self._core.framing.forget()
         self._core.detect_failed.clear()
         self._core.deaf_until.clear()
+        self._core.silent.clear()
+        return True
+
+    async def _answered(self) -> bool:
+        """After a reopen: wait until a controller that answered before answers again.
+
+        An open port is not a line: a cut cable opens fine and carries nothing. The loop stays
+        down (requests fail at once) until one controller answers a probe; the probes go round
+        every ``probe_period`` device seconds, so the loop is up within about that much of the
+        line coming back, with one ``LinkUp`` per outage. The first connection has nobody to
+        ask: the poller finds the controllers. ``LinkLost`` if the port closes meanwhile.
+        """
+        if self.state is not LinkState.DOWN or not self._core.answering:
+            return True
+        pause = self.timing.real(self.config.probe_period)
+        while self.state is LinkState.DOWN:
+            for body in sorted(self._core.answering):
+                if await self._core.probe(body):
+                    return True
+            self._retry_at = self.clock() + pause
+            await asyncio.sleep(pause)
+        return False
+
+    def _go_up(self) -> None:
+        self._core.silent.clear()
         self.state = LinkState.UP
         self.cause = ""
         self._retry_at = None
         self.events.publish(LinkUp(loop=self.name, time=self.clock()))
-        return True
 
     async def _go_down(self, cause: str) -> None:
+        if self.state is LinkState.DOWN:  # lost again while probing: one LinkDown per outage
+            self.cause = cause
+            await self._link.stop()
+            with contextlib.suppress(Exception):
+                await self.transport.close()
+            return
         self.state = LinkState.DOWN
         self.cause = cause
         self.counters.link_downs += 1
@@ -203,7 +262,14 @@ class LoopLifecycle:
         while True:
             if self._link.lost_cause is not None:
                 raise LinkLost(self._link.lost_cause)
-            request = self._queue.pop()
+            probe = self._core.needs_probe()
+            if probe is not None and self._queue.head_priority() is not Priority.STOP:
+                # Silence: is it one controller or the line? Ask another one now, so that a
+                # cut line is down within a few time-outs, not after the poller's backoff.
+                await self._core.probe(probe)
+                self._core.check_health(probe)
+                continue
+            request = self._queue.pop(blocked=self._must_wait)
             if request is None:
                 self._core.stop_waiting.clear()
                 self._wake.clear()

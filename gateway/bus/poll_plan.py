@@ -3,7 +3,8 @@
 ========== ====================================== ===============================================
 job        commands                               when
 ========== ====================================== ===============================================
-status     ``""``; moving: ``""`` ``6{mt}``       ``moving_period`` while a motor moves, else
+status     ``""``; moving: ``""`` ``6{mt}``,      ``moving_period`` while a motor moves (the
+           then ``6{mt}`` alone, in turn          status every other time), else
                                                   ``idle_period``; at once after a move starts
 settle     ``6{mt}`` ``CLM{mt}``                  at once when a move has ended (final position)
 sensors    ``CLM1`` ``CLM2``; moving: ``CL``      ``sensor_period``
@@ -17,10 +18,11 @@ identify   ``""`` ``V`` ``94`` ``SUM``,           first contact, back online, li
 probe      ``""``                                 offline: backoff ``probe_initial`` .. ``_max``
 ========== ====================================== ===============================================
 
-Of the jobs that are due the most urgent runs first (the order of ``Job``), then the one due
-longest. Periods are device seconds; due times are host seconds on the scheduler's clock
-(its ``time_scale`` maps one to the other for the simulator). Nothing here reads a clock or
-talks to the line: ``gateway.bus.poller`` runs the jobs and reports back.
+Of the jobs that are due the most urgent runs first (the order of ``Job``; an idle status read
+ranks with the moving ones), then the one due longest. Periods are device seconds; due times
+are host seconds on the scheduler's clock (its ``time_scale`` maps one to the other for the
+simulator). Nothing here reads a clock or talks to the line: ``gateway.bus.poller`` runs the
+jobs and reports back.
 """
 
 from __future__ import annotations
@@ -70,6 +72,7 @@ class BodyPlan:
     online: bool | None = None
     probe_delay: float = 0.0
     moving: bool = False  # as the poller's last status read saw it
+    moving_polls: int = 0  # polls of a moving controller: every other one reads the status
     ran_due: float = 0.0  # the due time of the job running (or run last)
     deferred: list[str] = field(default_factory=list)  # reads refused while moving, to do
 
@@ -105,15 +108,21 @@ class PollPlan:
     def pick(self, now: float) -> tuple[BodyPlan, Job] | float:
         """The most urgent due job, or the host time the next one is due."""
         best: tuple[Job, float, str] | None = None
+        picked = Job.STATUS
         earliest = float("inf")
         for plan in self.bodies.values():
             for job, due in plan.due.items():
-                if due <= now and (best is None or (job, due, plan.body) < best):
-                    best = (job, due, plan.body)
+                # An idle controller's status read ranks with the moving ones' (oldest
+                # first): moving polls come due faster than a busy line serves them, and
+                # an EMS or limit on an idle controller must be seen within its period too.
+                rank = Job.STATUS_MOVING if job is Job.STATUS else job
+                if due <= now and (best is None or (rank, due, plan.body) < best):
+                    best = (rank, due, plan.body)
+                    picked = job
                 earliest = min(earliest, due)
         if best is None:
             return earliest
-        return self.bodies[best[2]], best[0]
+        return self.bodies[best[2]], picked
 
     def next_due(self, due: float, period: float, now: float) -> float:
         """One period after the last due time, so a poll that started late (the line was

@@ -184,11 +184,18 @@ class Poller:
         motor = ctl.selected_motor or ctl.last_moved or 1
         if job is Job.IDENTIFY:
             await self._identify(plan)
+        elif job is Job.STATUS_MOVING and plan.moving and plan.moving_polls % 2:
+            # The position every moving period, the status every other one (100 ms: EMS and
+            # limits within one status poll), so that one moving axis among 15 controllers
+            # still gets its 15 position reads a second on a 9600 bps line.
+            plan.moving_polls += 1
+            await self._poll(plan, f"6{motor}")
         elif job in (Job.STATUS, Job.STATUS_MOVING, Job.PROBE):
             # While a motor moves it is the selected one (F is refused, §10 F): an unconfirmed
             # selection is read back with 97 in the same transaction.
             confirm = [] if ctl.selection_confirmed else ["97"]
             moving = [*confirm, f"6{motor}"] if plan.moving and job is not Job.PROBE else []
+            plan.moving_polls = 1 if moving else 0
             if await self._poll(plan, "", *moving) and not plan.moving and plan.deferred:
                 await self._poll(plan, *plan.deferred)
         elif job is Job.SETTLE:  # the move has ended: its final position and sensors
@@ -254,7 +261,12 @@ class Poller:
 
     def _answered(self, plan: BodyPlan, result: TransactionResult) -> bool:
         """Count a poll nobody answered; mark the controller offline or online."""
-        silent = all(r.kind in (ReplyKind.TIMEOUT, ReplyKind.SKIPPED) for r in result.results)
+        # A lost status reply is followed by a read of the other error store: if that one
+        # was answered, the controller answers (one reply lost on the line is not "off").
+        silent = all(
+            r.kind in (ReplyKind.TIMEOUT, ReplyKind.SKIPPED) and r.seen.get("errors_read") is None
+            for r in result.results
+        )
         now = self.now()
         if silent:
             plan.misses += 1
@@ -300,7 +312,8 @@ def attach(
         time_scale=scheduler.config.time_scale,
         clock=scheduler.clock,
     )
-    # The state first: the poller reads what the event has just taught it.
-    scheduler.events.subscribe(lambda e: state.handle(e, queue_depth=scheduler.queue_depth))
+    # The state first, whoever subscribes when: the poller (and every other subscriber) reads
+    # what the event has just taught it.
+    scheduler.use_state(state)
     scheduler.events.subscribe(poller.handle)
     return poller

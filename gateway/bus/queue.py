@@ -75,9 +75,19 @@ class Request:
 class RequestQueue:
     """Requests by priority, then arrival; see the module's text."""
 
-    def __init__(self, name: str, clock: Callable[[], float], on_put: Callable[[], None]) -> None:
+    def __init__(
+        self,
+        name: str,
+        clock: Callable[[], float],
+        on_put: Callable[[], None],
+        *,
+        aging: float | None = None,
+    ) -> None:
         self._name = name
         self._clock = clock
+        #: host seconds after which a waiting poll is lifted to operator priority (keeping
+        #: its place in line): a steady stream of operator requests never starves the polls
+        self._aging = aging
         self._on_put = on_put
         self._heap: list[tuple[int, int, Request]] = []
         self._seq = 0
@@ -157,17 +167,64 @@ class RequestQueue:
             heapq.heappop(self._heap)
             self._forget_if_dead(request)
 
+    def _age(self) -> None:
+        if self._aging is None:
+            return
+        old = self._clock() - self._aging
+        for entry in list(self._heap):
+            priority, _, request = entry
+            if (
+                priority == Priority.POLL == request.priority
+                and request.live
+                and min(w.since for w in request.waiters) <= old
+            ):
+                self._lift(entry)
+
+    def _lift(self, entry: tuple[int, int, Request]) -> None:
+        """A request passed over because it had to wait goes, once it may, before anything
+        of its controller queued after it: a poll waiting for a motion to end is lifted to
+        operator priority and keeps its place, so the next move does not starve it."""
+        priority, seq, request = entry
+        if priority > Priority.OPERATOR:
+            request.priority = Priority.OPERATOR
+            heapq.heappush(self._heap, (int(Priority.OPERATOR), seq, request))
+
     def head_priority(self) -> Priority | None:
         """The priority of the next request, None when the queue is empty."""
         self._clean()
         return Priority(self._heap[0][0]) if self._heap else None
 
-    def pop(self, only: Priority | None = None) -> Request | None:
-        """The next live request (only of priority ``only`` if given), marked started."""
+    def pop(
+        self, only: Priority | None = None, *, blocked: Callable[[Request], bool] | None = None
+    ) -> Request | None:
+        """The next live request (only of priority ``only`` if given), marked started.
+
+        ``blocked(request)``: it cannot go now (it stays queued, bounded by its deadline) and
+        the next one is taken instead.
+        """
+        self._age()
         self._clean()
         if not self._heap or (only is not None and self._heap[0][0] != only):
             return None
-        _, _, request = heapq.heappop(self._heap)
+        entry: tuple[int, int, Request] | None = self._heap[0]
+        if blocked is not None and blocked(self._heap[0][2]):
+            ready = [
+                e
+                for e in sorted(self._heap)
+                if e[2].live and e[0] == e[2].priority and (only is None or e[0] == only)
+            ]
+            entry = next((e for e in ready if not blocked(e[2])), None)
+            for waiting in ready:
+                if waiting is entry:
+                    break
+                self._lift(waiting)
+            if entry is None:
+                return None
+            self._heap.remove(entry)
+            heapq.heapify(self._heap)
+        else:
+            entry = heapq.heappop(self._heap)
+        request = entry[2]
         request.started = True
         if request.key is not None and self._shared.get(request.key) is request:
             del self._shared[request.key]

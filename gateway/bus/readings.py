@@ -107,10 +107,16 @@ class _Reading:
             self.ctl(selected_motor=self.command.motor, selection_confirmed=False)
         elif form.effect is Effect.MOTION and not ctl.moving:
             # A suffix selects the motor and the selection stays (§9-1, §10 F).
+            # Moving from the '>' on, until a status read says otherwise: a per-motor command
+            # for the other motor must wait, its F would be refused (§10 F).
             moved = self.motor(ctl)
-            self.ctl(selected_motor=moved, last_moved=moved, selection_confirmed=False)
+            self.ctl(selected_motor=moved, last_moved=moved, selection_confirmed=False, moving=True)
         elif key[:-1] in ("EE", "EL", "ER", "SUM") and key[-1:] in "01":
             self.framing(key[:-1], key[-1] == "1")
+        elif key in ("EP0", "EP1"):
+            self.ctl(signed_positions=key == "EP1")
+        elif key == "DL":  # the settings, EP among them, reloaded from the EEPROM (§10 DL)
+            self.ctl(signed_positions=None)
 
     def framing(self, switch: str, on: bool) -> None:
         names = {"EE": "echo", "EL": "cr_after_ack", "ER": "error_mark", "SUM": "checksum"}
@@ -123,7 +129,11 @@ class _Reading:
         if flags.moving and not ctl.moving and ctl.selected_motor is not None:
             self.ctl(last_moved=ctl.selected_motor)
         self.ctl(status=flags, moving=flags.moving)
-        self.latch(k for name, k in _STATUS_KINDS.items() if getattr(flags, name))
+        kinds = {k for name, k in _STATUS_KINDS.items() if getattr(flags, name)}
+        self.latch(kinds)
+        # The condition store keeps these until a 9 form I read (§10 9 ③): not new then.
+        seen = self.cache.status_since_condition
+        seen[self.loop, self.body] = seen.get((self.loop, self.body), frozenset()) | kinds
         for m in MOTORS:
             self.axis(m, updated=self.now, stale=False)
 
@@ -139,7 +149,12 @@ class _Reading:
             selection_confirmed=True,
             condition_bits=MappingProxyType(bits),
         )
-        kinds = [k for name, k in _STATUS_KINDS.items() if getattr(flags, name)]
+        # Bits 1-3 that "" already reported since the last form I read are the same errors
+        # again (two stores of one event, §10 9 ③), not new ones: latched once.
+        reported = self.cache.status_since_condition.pop((self.loop, self.body), frozenset())
+        kinds = [
+            k for name, k in _STATUS_KINDS.items() if getattr(flags, name) and k not in reported
+        ]
         self.latch([ErrorKind.COMMUNICATION] * flags.communication_error + kinds)
 
     def number(self, ctl: ControllerState, value: int) -> None:
@@ -152,6 +167,8 @@ class _Reading:
             self.condition_bit(ctl, int(self.command.params()["bit"]), value)
         elif key == "E":
             self.ctl(mode=value)
+        elif key == "EP" and value in (0, 1):
+            self.ctl(signed_positions=value == 1)
         elif key == "F":
             self.ctl(selected_motor=value, selection_confirmed=True)
         elif key in ("EE", "EL", "ER", "SUM"):

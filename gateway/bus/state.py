@@ -81,6 +81,9 @@ class StateCache(ChangeLog):
         self._ctls: dict[tuple[str, str], ControllerState] = {}
         self._axes: dict[tuple[str, str, int], AxisState] = {}
         self._counters_published: dict[str, float] = {}
+        #: per controller, the errors ``""`` reported since the last ``9`` form I read (the
+        #: controller holds them in both stores, §10 9 ③: ``readings``)
+        self.status_since_condition: dict[tuple[str, str], frozenset[ErrorKind]] = {}
         self.counters_period = 1.0
 
     # ------------------------------------------------------------------ reading
@@ -240,13 +243,24 @@ class StateCache(ChangeLog):
         restored, the poller reads every controller again (issue 4)."""
         self._set_loop(now, loop, up=up, cause=None if up else cause)
         for name, body in [k for k in self._ctls if k[0] == loop]:
-            self._set_ctl(now, name, body, online=None, selection_confirmed=False)
+            # Nothing a silent loop said is current: not even that a motor moves (a moving
+            # flag that outlived the line would answer requests as a busy controller).
+            self._set_ctl(
+                now,
+                name,
+                body,
+                online=None,
+                moving=False,
+                selection_confirmed=False,
+                signed_positions=None,
+            )
             for m in MOTORS:
                 self._set_axis(now, name, body, m, stale=True)
 
     def set_online(self, loop: str, body: str, online: bool, now: float) -> None:
-        """The poller found the controller answering (or not)."""
-        self._set_ctl(now, loop, body, online=online)
+        """The poller found the controller answering (or not): off and back, it has reloaded
+        its settings from the EEPROM (§16), EP among them."""
+        self._set_ctl(now, loop, body, online=online, signed_positions=None)
         if not online:  # switched off: nothing moves; power-on resets the selection (§16)
             self._set_ctl(now, loop, body, moving=False, selection_confirmed=False)
             for m in MOTORS:

@@ -100,6 +100,9 @@ class ControllerState:
     #: was valid, §9-2); True once read back with 9, 97 or F
     selection_confirmed: bool = False
     last_moved: int | None = None  # the motor of the latest move the gateway knows of
+    #: position management: True signed (EP1), False unsigned (EP0), None not read since the
+    #: link came up or the controller came back (§10 EP; mode 1 is signed whatever EP says)
+    signed_positions: bool | None = None
     latched: Mapping[ErrorKind, Latch] = field(default_factory=lambda: MappingProxyType({}))
     updated: float | None = None
 

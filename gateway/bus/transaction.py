@@ -38,6 +38,7 @@ from gateway.bus.verify import (
 from gateway.protocol.framing import Framing, framing_switch
 from gateway.protocol.models import Command
 from gateway.protocol.program import Program
+from gateway.protocol.registry import parse
 from gateway.protocol.replies import ReplyValue
 from gateway.protocol.reply_values import StatusFlags
 from gateway.protocol.spec import ReplyFormat
@@ -46,6 +47,9 @@ __all__ = ["FLAG_CLEARING_FORMS", "TransactionRunner"]
 
 #: Forms that clear latched device errors as a side effect, without reporting them (§10 K).
 FLAG_CLEARING_FORMS = frozenset({"K{dt},{du}{dl}", "K{dt},{bt}", "KC"})
+#: The error bits ``""`` and ``9`` (form I) clear live in two stores, one per read (§10 9 ③):
+#: after a lost reply to one, the other still reports them.
+_OTHER_STORE = {'""': parse("9"), "9": parse("")}
 
 
 class TransactionRunner:
@@ -114,6 +118,17 @@ class TransactionRunner:
         sent = await self._send_retrying(command, self.motor)
         return sent.value if sent.kind is ReplyKind.DATA else None
 
+    async def _position(self, motor: int | None) -> int | None:
+        """The position read twice (three times when they differ): without a checksum a
+        reply bent on the line can still decode, and every verdict on the motion rests on
+        this pre-read. None when no two reads agree."""
+        query = position_query(motor)
+        first, second = await self._query(query), await self._query(query)
+        if first != second:
+            third = await self._query(query)
+            first = third if third in (first, second) else None
+        return first if isinstance(first, int) and not isinstance(first, bool) else None
+
     async def _confirm(self, motor: int) -> bool:
         """After '>' to F{m}: is m selected? (F is refused while a motor moves, §10 F)."""
         core = self.core
@@ -151,6 +166,12 @@ class TransactionRunner:
             sent = await core.send(body, command, self.motor)
             st.attempts += 1
             if sent.kind is ReplyKind.NOT_ACCEPTED:
+                if is_motion(command):
+                    # On a noisy line a '>' one bit off reads '?' (0x3E, 0x3F): a motion is
+                    # sent again only once a read-back shows it did not run (invariant 6).
+                    checked = await self._verify(st, sent.kind, "'?'")
+                    if checked.outcome is not Outcome.NOT_DONE:
+                        return checked
                 if self._again_after_nak(st):
                     continue
                 return st.result(sent.kind, Outcome.NOT_DONE, sent.note)
@@ -176,8 +197,7 @@ class TransactionRunner:
             # (DESIGN invariant 4).
             st.seen["status_before"] = await self._query(status_query())
         if is_motion(command):  # right before every send of the move
-            value = await self._query(position_query(self._axis(command)))
-            st.before_pos = value if isinstance(value, int) else None
+            st.before_pos = await self._position(self._axis(command))
             st.seen["position_before"] = st.before_pos
         if st.check is not None and st.before_value is None:
             st.before_value = await self._query(st.check.query)
@@ -221,8 +241,8 @@ class TransactionRunner:
             outcome = await hold_for_write(self.core, self.body, command, st.mark, st.seen)
         return st.result(sent.kind, outcome, note, value=sent.value, late=sent.late)
 
-    async def _verify(self, st: _Step, kind: ReplyKind) -> CommandResult:
-        """The reply of a command that must not be sent again was lost: read back."""
+    async def _verify(self, st: _Step, kind: ReplyKind, why: str = "reply lost") -> CommandResult:
+        """The reply of a command that must not be sent again was lost (or bent): read back."""
         core, command, seen = self.core, st.command, st.seen
         core.counters.verifications += 1
         if is_motion(command):
@@ -251,9 +271,17 @@ class TransactionRunner:
         elif command.reply_format is ReplyFormat.ACK_THEN_DONE:
             outcome = await hold_for_write(core, self.body, command, st.mark, seen)
             how = "waited for $B#*"
+        elif command.key in _OTHER_STORE:
+            # The lost reply cleared error bits nobody saw (an EMS, a limit). The controller
+            # keeps them in a second store too (§10 "" and §10 9 ③): read that one now, so
+            # the state cache latches them at once rather than never.
+            other = _OTHER_STORE[command.key]
+            seen["errors_read"] = await self._query(other)
+            shown = other.wire() or '""'
+            outcome, how = Outcome.UNKNOWN, f"read {shown} for the errors it cleared"
         else:
             outcome, how = Outcome.UNKNOWN, "nothing reads it back"
-        return st.result(kind, outcome, f"reply lost; {how}")
+        return st.result(kind, outcome, f"{why}; {how}")
 
 
 @dataclass

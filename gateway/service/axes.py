@@ -26,6 +26,7 @@ from __future__ import annotations
 from typing import Any
 
 from gateway.bus.requests import TransactionResult
+from gateway.bus.scheduler import LinkState
 from gateway.bus.state_types import ErrorKind
 from gateway.errors import ConflictError, DeviceError, InvalidInputError
 from gateway.protocol.models import Command
@@ -156,7 +157,8 @@ class AxisService:
         else:
             moves = [position_data(target, fmt), parse("3")]
         request = {"position": position, "relative": relative, "unit": unit.value}
-        return await self._run(ref, "move", request, moves, target=target, holder=holder)
+        step = value if relative else None
+        return await self._run(ref, "move", request, moves, target=target, step=step, holder=holder)
 
     async def home(self, ident: str, method: HomeMethod, *, holder: str) -> Operation:
         """Search the origin with ``method``; the position is 0 there (§10 0 ... 0Z)."""
@@ -217,7 +219,10 @@ class AxisService:
         check_target(ref, target, fmt)
         request = {"direction": direction.value}
         commands = [parse(_STEP[direction])]
-        return await self._run(ref, "step", request, commands, target=target, holder=holder)
+        step = 1 if direction is Direction.CW else -1
+        return await self._run(
+            ref, "step", request, commands, target=target, step=step, holder=holder
+        )
 
     async def stop(self, ident: str, mode: StopMode) -> StopResult:
         """Stop: never refused (no lease, moving or state check). ``S``/``SS`` act on the
@@ -296,6 +301,9 @@ class AxisService:
     def _may_act(self, ref: AxisRef, holder: str, what: str = "move") -> None:
         """Leases, the controller online and not moving; nothing sent yet."""
         self.leases.check(holder, (ref.id, ref.controller_id))
+        scheduler = self.gateway.scheduler(ref.loop)
+        if scheduler.state is not LinkState.UP:
+            raise scheduler.down_error()  # the line first: a dead loop is no busy controller
         ctl = self.gateway.state.controller(ref.loop, ref.body)
         if ctl.online is False:
             raise DeviceError(
@@ -336,6 +344,7 @@ class AxisService:
         commands: list[Command],
         *,
         target: int | None = None,
+        step: int | None = None,
         holder: str,
     ) -> Operation:
         return await self.operations.run(
@@ -345,6 +354,7 @@ class AxisService:
             commands,
             motor=ref.motor,
             target=target,
+            step=step,
             prefix=self._prefix(ref),
             holder=holder,
         )

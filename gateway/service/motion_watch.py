@@ -18,6 +18,7 @@ from __future__ import annotations
 import asyncio
 import logging
 from collections.abc import Callable
+from dataclasses import dataclass, field
 from typing import Any
 
 from gateway.bus.events import BusEvent, LinkDown, ReplyObserved, TransactionDone
@@ -25,15 +26,19 @@ from gateway.bus.requests import Outcome
 from gateway.bus.state_types import Change
 from gateway.protocol.registry import parse
 from gateway.protocol.reply_values import StatusFlags
+from gateway.protocol.spec import Effect
 from gateway.service.gateway import Gateway
 from gateway.service.operation_types import FINAL, Operation, OperationError, OperationState
 
-__all__ = ["FINAL_READ_WAIT", "MotionWatch"]
+__all__ = ["FINAL_READ_WAIT", "READ_BACK_HOLD", "MotionWatch"]
 
 log = logging.getLogger("gateway.service")
 
 #: Host seconds to wait for the poller's position read after the end before reading it here.
 FINAL_READ_WAIT = 0.5
+#: Host seconds a new motion on a controller waits (409) for the read-back of an ``unknown``
+#: operation there, so that the read-back judges that operation and not the next one.
+READ_BACK_HOLD = 2.0
 
 _LIMIT = OperationError(
     kind="limit_error",
@@ -63,11 +68,15 @@ class MotionWatch:
         active: dict[tuple[str, str], Operation],
         set_state: Callable[[Operation, OperationState], None],
         end: Callable[[Operation, OperationState, OperationError | None], None],
+        resolve: Callable[[Operation, OperationState, OperationError | None, int | None], None],
     ) -> None:
         self.gateway = gateway
         self._active = active
         self._set = set_state
         self._end = end
+        self._resolve = resolve
+        #: per controller, the ``unknown`` operation to read back when it answers again
+        self._unknown: dict[tuple[str, str], _ReadBack] = {}
         self._tasks: set[asyncio.Task[Any]] = set()
         self._unsubscribe = [
             scheduler.events.subscribe(self._on_bus) for scheduler in gateway.schedulers.values()
@@ -89,6 +98,8 @@ class MotionWatch:
                     self._end(running, OperationState.UNKNOWN, error)
             return
         body = getattr(event, "body", None)
+        if isinstance(event, ReplyObserved) and (event.loop, event.body) in self._unknown:
+            self._read_back(self._unknown[event.loop, event.body], event)
         op = self._active.get((event.loop, body)) if isinstance(body, str) else None
         if op is None:
             return
@@ -131,6 +142,26 @@ class MotionWatch:
         if op.state in FINAL:
             return
         op.position = position
+        if self._reached(op, position):
+            # The axis stands at the end of this motion: it was carried out. An error the
+            # device latched meanwhile (another command's, or a status reply bent on the
+            # line) stays on the controller for clients to see; it is not this motion's.
+            self._end(op, OperationState.DONE, None)
+            return
+        if self._short(op) and not op.rechecked:
+            # Short of its end and no error seen: the status read that showed the stop may
+            # have been bent on the line. Read again before judging.
+            op.rechecked = True
+            flags, position = await self._recheck(op)
+            if op.state in FINAL:
+                return
+            if flags is not None and flags.moving:
+                op.ending = None  # still turning: the next status read that shows the stop
+                return
+            op.position = position if position is not None else op.position
+            if self._reached(op, op.position):
+                self._end(op, OperationState.DONE, None)
+                return
         if "limit_error" in op.errors:
             self._end(op, OperationState.FAILED, _LIMIT)
         elif "emergency_stop" in op.errors:
@@ -142,8 +173,50 @@ class MotionWatch:
             if op.target is not None:
                 detail += f", before its target {op.target}"
             self._end(op, OperationState.FAILED, OperationError.of("stopped", "Stopped", detail))
+        elif self._short(op) and op.position is not None:
+            # Either the motion stopped short for a reason nobody reported, or a reply bent
+            # on the line (the pre-read) gave a wrong end: the gateway cannot tell.
+            detail = (
+                f"the {op.kind} ended at {op.position} pulses, not at the end {op.expected_end} "
+                f"its pre-read ({op.position_before}) gives, and the controller reported no error"
+            )
+            error = OperationError.of("not_reached", "Target not reached", detail, "unknown")
+            self._end(op, OperationState.UNKNOWN, error)
         else:
             self._end(op, OperationState.DONE, None)
+
+    @staticmethod
+    def _reached(op: Operation, position: int | None) -> bool:
+        """At the end of its motion, and away from where it started."""
+        return (
+            position is not None and position == op.expected_end and position != op.position_before
+        )
+
+    @staticmethod
+    def _short(op: Operation) -> bool:
+        """A move or step that ended elsewhere than its end, with no error and no stop."""
+        return (
+            op.kind in ("move", "step")
+            and op.expected_end is not None
+            and op.position != op.expected_end
+            and not op.errors
+            and not op.stop_requested
+        )
+
+    async def _recheck(self, op: Operation) -> tuple[StatusFlags | None, int | None]:
+        """The status and the position of ``op``'s axis, read now."""
+        try:
+            result = await self.gateway.scheduler(op.axis.loop).submit(
+                op.axis.body, [parse(""), parse(f"6{op.motor}")]
+            )
+        except Exception as exc:
+            log.info("operation %s: end not read again: %s", op.id, exc)
+            return None, None
+        flags, position = (r.value for r in result.results)
+        return (
+            flags if isinstance(flags, StatusFlags) else None,
+            position if isinstance(position, int) and not isinstance(position, bool) else None,
+        )
 
     async def _read_position(self, op: Operation) -> int | None:
         try:
@@ -167,3 +240,86 @@ class MotionWatch:
                     "offline", "Controller offline", "the controller stopped answering", "unknown"
                 )
                 self._end(op, OperationState.UNKNOWN, error)
+
+    # ------------------------------------------------------------------ read back
+
+    def waiting(self) -> list[Operation]:
+        """The ``unknown`` operations waiting to be read back."""
+        return [rb.op for rb in self._unknown.values()]
+
+    def read_back_later(self, op: Operation) -> None:
+        """``op`` ended ``unknown``: judge it once its controller answers again (a status read
+        that shows no motion, then a position read of its motor, against the pre-read)."""
+        if op.position_before is None or op.expected_end is None:
+            return  # nothing to compare a read-back with: it stays unknown, with its reason
+        rb = _ReadBack(op, since=asyncio.get_running_loop().time())
+        self._unknown[op.axis.loop, op.axis.body] = rb
+        rb.reading = True  # ask now: the poller's next status read may be a second away
+        task = asyncio.ensure_future(self._recheck(op))
+        self._tasks.add(task)
+        task.add_done_callback(self._tasks.discard)
+
+    def reading_back(self, loop: str, body: str) -> Operation | None:
+        """The ``unknown`` operation of ``loop.body`` being read back right now (for at most
+        ``READ_BACK_HOLD`` s): a new motion would make its read-back meaningless."""
+        rb = self._unknown.get((loop, body))
+        if rb is None or asyncio.get_running_loop().time() - rb.since > READ_BACK_HOLD:
+            return None
+        return rb.op
+
+    def _read_back(self, rb: _ReadBack, event: ReplyObserved) -> None:
+        op, value = rb.op, event.value
+        key = (op.axis.loop, op.axis.body)
+        if op.state is not OperationState.UNKNOWN:
+            del self._unknown[key]
+            return
+        accepted = value is None and not event.rejected
+        if accepted and event.command.form.effect is Effect.MOTION:
+            del self._unknown[key]  # another motion started: the read-back would judge it
+            return
+        if isinstance(value, StatusFlags):
+            rb.settled = not value.moving
+            if value.limit_error:
+                rb.errors.add("limit_error")
+            if value.emergency_stop:
+                rb.errors.add("emergency_stop")
+            if rb.settled and not rb.reading:
+                rb.reading = True
+                task = asyncio.ensure_future(self._read_position(op))
+                self._tasks.add(task)
+                task.add_done_callback(self._tasks.discard)
+        elif rb.settled and event.command.key in ("6", "6{mt}"):
+            motor = event.command.motor or event.motor
+            if motor == op.motor and isinstance(value, int) and not isinstance(value, bool):
+                del self._unknown[key]
+                self._judge(op, value, rb.errors)
+
+    def _judge(self, op: Operation, position: int, errors: set[str]) -> None:
+        expected, before = op.expected_end, op.position_before
+        seen = f"read back when the controller answered again: {position} pulses"
+        if position == expected:
+            self._resolve(op, OperationState.DONE, None, position)
+        elif position == before:
+            error = OperationError.of(
+                "device", "Not done", f"{seen}, where it started: not carried out", "not_done"
+            )
+            self._resolve(op, OperationState.FAILED, error, position)
+        elif errors:
+            error = _LIMIT if "limit_error" in errors else _EMERGENCY
+            self._resolve(op, OperationState.FAILED, error, position)
+        elif op.error is not None:
+            # Neither the start nor the end: it moved and stopped short; nobody can tell why.
+            detail = f"{op.error.detail}; {seen}, neither the start {before} nor the end {expected}"
+            error = op.error.model_copy(update={"detail": detail})
+            self._resolve(op, OperationState.UNKNOWN, error, position)
+
+
+@dataclass
+class _ReadBack:
+    """An ``unknown`` operation waiting for its controller to answer again."""
+
+    op: Operation
+    since: float = 0.0  # host time the follow-up started
+    settled: bool = False  # a status read has shown no motion since
+    reading: bool = False  # a position read was asked for
+    errors: set[str] = field(default_factory=set)

@@ -47,8 +47,8 @@ class OperationError(BaseModel):
     """Why an operation failed or is unknown, problem-like."""
 
     kind: str = Field(
-        description="limit_error, emergency_stop, command_error, stopped, device, loop_down, "
-        "offline, refused"
+        description="limit_error, emergency_stop, command_error, stopped, not_reached, device, "
+        "loop_down, offline, refused"
     )
     title: str
     detail: str
@@ -154,6 +154,19 @@ class Operation:
     errors: set[str] = field(default_factory=set)
     ending: asyncio.Future[int] | None = None
     finished: asyncio.Event = field(default_factory=asyncio.Event)
+    #: relative moves and steps: the pulses moved by (the end is the pre-read plus this)
+    step: int | None = None
+    #: the position read right before the motion command was sent (the scheduler's pre-read)
+    position_before: int | None = None
+    rechecked: bool = False  # the end was read again once (a status reply may be bent)
+
+    @property
+    def expected_end(self) -> int | None:
+        """Where the axis is once the motion is carried out: the pre-read plus the step of a
+        relative move, the target of an absolute one (None: not known, a jog)."""
+        if self.step is not None:
+            return None if self.position_before is None else self.position_before + self.step
+        return self.target
 
     @property
     def final(self) -> bool:

@@ -15,7 +15,7 @@ import itertools
 import logging
 import time
 from collections import OrderedDict
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 from gateway.bus.requests import LoopDown, Outcome, ReplyKind, TransactionResult
@@ -49,7 +49,8 @@ class Operations:
         self._ops: OrderedDict[str, Operation] = OrderedDict()
         self._active: dict[tuple[str, str], Operation] = {}
         self._ids = itertools.count(1)
-        self._watch = MotionWatch(gateway, self._active, self._set, self._end)
+        self._resolved: list[Callable[[Operation], object]] = []
+        self._watch = MotionWatch(gateway, self._active, self._set, self._end, self._resolve)
 
     def close(self) -> None:
         """Stop listening (the gateway is closing)."""
@@ -76,6 +77,10 @@ class Operations:
                     break
         return out
 
+    def unresolved(self) -> tuple[Operation, ...]:
+        """The ``unknown`` operations still waiting for their controller to answer again."""
+        return tuple(self._watch.waiting())
+
     def active(self, loop: str, body: str) -> Operation | None:
         """The operation not yet ended on controller ``loop.body``, if any."""
         return self._active.get((loop, body))
@@ -98,6 +103,7 @@ class Operations:
         *,
         motor: int | None,
         target: int | None = None,
+        step: int | None = None,
         prefix: str = "$",
         holder: str | None = None,
     ) -> Operation:
@@ -116,6 +122,13 @@ class Operations:
                 "in progress (§2: its two motors never move together)",
                 field="axis",
             )
+        unsure = self._watch.reading_back(*key)
+        if unsure is not None:
+            raise ConflictError(
+                f"controller {axis.controller_id}: the outcome of operation {unsure.id} is "
+                "being read back; a motion now would make it unknowable",
+                field="axis",
+            )
         op = Operation(
             id=f"op-{next(self._ids)}-{int(time.time() * 1000) % 100_000_000:08d}",
             axis=axis,
@@ -126,6 +139,7 @@ class Operations:
             holder=holder,
             wire=tuple(c.wire() for c in commands),
             prefix=prefix,
+            step=step,
         )
         self._store(op)
         self._active[key] = op
@@ -161,6 +175,10 @@ class Operations:
     def _after(self, op: Operation, result: TransactionResult) -> None:
         """Record the transaction's result; raise what a caller must learn."""
         op.frames = frames_of(result, op.prefix)
+        for command_result in result.results:
+            before = command_result.seen.get("position_before")
+            if isinstance(before, int) and not isinstance(before, bool):
+                op.position_before = before
         outcome = result.outcome
         if outcome is Outcome.DONE:
             if op.state is OperationState.QUEUED:
@@ -234,6 +252,32 @@ class Operations:
             del self._active[key]
         self._set(op, state)
         op.finished.set()
+        if state is OperationState.UNKNOWN:
+            self._watch.read_back_later(op)
+
+    def _resolve(
+        self,
+        op: Operation,
+        state: OperationState,
+        error: OperationError | None,
+        position: int | None,
+    ) -> None:
+        """An ``unknown`` operation read back once its controller answered again: its new
+        state reaches every watcher (operation status, events, ``on_resolved``)."""
+        if op.state is not OperationState.UNKNOWN:
+            return
+        op.error = error
+        op.position = position
+        self._set(op, state)
+        for callback in list(self._resolved):
+            try:
+                callback(op)
+            except Exception:  # one bad listener must not stop the others
+                log.exception("operation %s: resolution listener failed", op.id)
+
+    def on_resolved(self, callback: Callable[[Operation], object]) -> None:
+        """Call ``callback(op)`` whenever an ``unknown`` operation is resolved (the audit)."""
+        self._resolved.append(callback)
 
     def _publish(self, op: Operation) -> None:
         data = op.view().model_dump(mode="json")

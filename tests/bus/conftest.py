@@ -92,14 +92,16 @@ class Bus:
         result = await self.scheduler.submit(body, parse(text), **kw)
         return result.value
 
-    def once_after(self, wire: str, action: Callable[[], None]) -> None:
-        """Run ``action`` right after the first published reply to the command ``wire``."""
+    def once_after(self, wire: str, action: Callable[[], None], nth: int = 1) -> None:
+        """Run ``action`` right after the ``nth`` published reply to the command ``wire``
+        (the scheduler reads a motion's position twice before it: ``nth=2``)."""
         fired: list[bool] = []
 
         def watch(event: BusEvent) -> None:
-            if isinstance(event, ReplyObserved) and event.command.wire() == wire and not fired:
+            if isinstance(event, ReplyObserved) and event.command.wire() == wire:
                 fired.append(True)
-                action()
+                if len(fired) == nth:
+                    action()
 
         self.scheduler.events.subscribe(watch)
 

@@ -118,7 +118,7 @@ async def move(r: Rig, body: str, motor: int, target: int) -> None:
 async def test_moving_axis_gets_15_position_reads_a_second_among_15_controllers(
     rig: Callable[..., Rig],
 ) -> None:
-    r = await rig(ALL_BODIES, scale=4.0)
+    r = await rig(ALL_BODIES, scale=1.0)
     # Every controller identified from the device first (V read on the line).
     await r.identified(ALL_BODIES)
     assert all(r.state.controller(LOOP, b).version for b in ALL_BODIES)
@@ -214,7 +214,14 @@ async def test_a_move_started_by_a_client_is_polled_at_once(rig: Callable[..., R
     await r.identified("1")
     await move(r, "1", 2, 20000)
     started = r.sim.now()
-    await r.until(lambda: r.state.axis(LOOP, "1", 2).moving, 5.0)
+    # The '>' makes the axis moving at once; the forced status read confirms it.
+    assert r.state.axis(LOOP, "1", 2).moving
+
+    def status_moving() -> bool:
+        status = r.state.controller(LOOP, "1").status
+        return status is not None and status.moving
+
+    await r.until(status_moving, 5.0)
     status = r.frames(b"$1\r", since=started)
     assert status and status[0].time - started < 0.1
     # No poll was refused for the move (E, EE, EL, ER, CLM are not usable while moving):

@@ -40,10 +40,11 @@ async def test_a_lost_reply_to_a_read_that_clears_flags_is_not_sent_again(
     bus.fault(FaultKind.DROP)
     result = await bus.scheduler.submit("1", parse(""))
     # §10 "": the read cleared the error bits it reported; sending it again would report
-    # none of them, so it is not resent and the caller learns the value is lost.
+    # none of them, so it is not resent and the caller learns the value is lost. The bits
+    # are read from the other store instead (9 form I, §10 9 ③).
     assert result.outcome is Outcome.UNKNOWN
     assert result.results[0].kind is ReplyKind.TIMEOUT
-    assert bus.texts() == [""]
+    assert bus.texts() == ["", "9"]
 
 
 async def test_a_query_the_controller_refused_is_not_done(make_bus: MakeBus) -> None:

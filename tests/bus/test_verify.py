@@ -80,8 +80,8 @@ async def test_a_move_whose_reply_was_lost_is_not_sent_again_and_is_done(
 ) -> None:
     bus = await make_bus("1")
     await bus.scheduler.submit("1", parse("21000"))  # §10 2: the pulse count of 4 and 5
-    # The pre-read 62 goes out right before the move: the next frame is the move itself.
-    bus.once_after("62", lambda: bus.fault(FaultKind.DROP))
+    # The pre-read 62 (twice) goes out right before the move: the next frame is the move.
+    bus.once_after("62", lambda: bus.fault(FaultKind.DROP), nth=2)
     result = await bus.scheduler.submit("1", parse("42"))
     move = result.results[0]
     assert move.kind is ReplyKind.TIMEOUT
@@ -92,13 +92,13 @@ async def test_a_move_whose_reply_was_lost_is_not_sent_again_and_is_done(
     assert bus.position(motor=2) == 1000  # moved once, not twice
     assert bus.scheduler.snapshot().verifications == 1
     # The read-back's status read is "" (it clears the error bits: published, notes).
-    assert bus.texts()[1:5] == ["62", "42", "", "62"]
+    assert bus.texts()[1:6] == ["62", "62", "42", "", "62"]
 
 
 async def test_a_move_answered_not_accepted_is_sent_again(make_bus: MakeBus) -> None:
     bus = await make_bus("1")
     await bus.scheduler.submit("1", parse("2500"))
-    bus.once_after("61", lambda: bus.fault(FaultKind.NAK))
+    bus.once_after("61", lambda: bus.fault(FaultKind.NAK), nth=2)
     result = await bus.scheduler.submit("1", parse("41"))
     assert result.outcome is Outcome.DONE
     assert result.results[0].attempts == 2
@@ -111,7 +111,7 @@ async def test_a_move_the_device_did_not_run_is_not_done(make_bus: MakeBus) -> N
     bus = await make_bus("1")
     await bus.scheduler.submit("1", parse("2500"))
     bus.sim.act(lambda now: bus.controller().set_ems(now, True))
-    bus.once_after("61", lambda: bus.fault(FaultKind.DROP))
+    bus.once_after("61", lambda: bus.fault(FaultKind.DROP), nth=2)
     result = await bus.scheduler.submit("1", parse("41"))
     move = result.results[0]
     # EMS ON: the move is answered '>' and not run (notes "Motion commands while EMS is ON")
