@@ -26,11 +26,16 @@ def test_redact_masks_token_values_only(text: str, masked: str) -> None:
 def test_every_logger_is_redacted_once_installed(caplog: pytest.LogCaptureFixture) -> None:
     install_log_redaction()
     install_log_redaction()  # again: no second wrapper
-    with caplog.at_level(logging.INFO):
-        logging.getLogger("uvicorn.error").info(
-            '%s - "WebSocket %s" [accepted]', "1.2.3.4:5", "/ws?token=t0k"
-        )
-        logging.getLogger("somewhere.else").warning("header was Bearer %s", "t0k2")
+    # uvicorn's logger as a server configures it (an earlier test may have run uvicorn: its
+    # loggers then do not propagate to the root), heard directly
+    uvicorn_log = logging.getLogger("uvicorn.error")
+    uvicorn_log.addHandler(caplog.handler)
+    try:
+        with caplog.at_level(logging.INFO), caplog.at_level(logging.INFO, "uvicorn.error"):
+            uvicorn_log.info('%s - "WebSocket %s" [accepted]', "1.2.3.4:5", "/ws?token=t0k")
+            logging.getLogger("somewhere.else").warning("header was Bearer %s", "t0k2")
+    finally:
+        uvicorn_log.removeHandler(caplog.handler)
     assert "t0k" not in caplog.text
     assert '"WebSocket /ws?token=***" [accepted]' in caplog.text
     assert "Bearer ***" in caplog.text
