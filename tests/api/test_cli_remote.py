@@ -58,7 +58,10 @@ async def _read_until(process: asyncio.subprocess.Process, *needles: str) -> lis
 
 async def _interrupt(process: asyncio.subprocess.Process) -> None:
     process.send_signal(signal.SIGINT)
-    assert await asyncio.wait_for(process.wait(), 20) == 0
+    # Read both pipes to their end while it stops: a process blocked on a full pipe would
+    # never reach its clean-up.
+    await asyncio.wait_for(process.communicate(), 20)
+    assert process.returncode == 0
 
 
 async def test_trace_follows_the_frames_on_the_wire(served: tuple[Api, str]) -> None:
