@@ -100,8 +100,9 @@ async def test_run_status_pause_and_stop_answer_while_a_program_prints(api: Api)
 
 
 async def test_a_program_stopped_while_it_prints_loses_no_line(api: Api) -> None:
-    # 200 numbered lines 0.1 s apart (/T1): stopped (GE) after the tenth.
-    text = "".join(f"/COT{n:03d}/T1" for n in range(1, 201)) + "/END"
+    # 200 numbered lines 0.5 s apart (/T5): stopped (GE) after the tenth, long before the last
+    # even when the host is slow (at 0.1 s apart a busy machine saw all 200 before the stop).
+    text = "".join(f"/COT{n:03d}/T5" for n in range(1, 201)) + "/END"
     assert (await api.client.put(PROGRAM, json={"text": text})).status_code == 200
     mark = api.mark()
     assert (await api.client.post(f"{PROGRAM}/run")).status_code == 200
