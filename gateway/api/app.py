@@ -21,13 +21,14 @@ from fastapi.middleware.cors import CORSMiddleware
 from gateway import __version__
 from gateway.api import (
     routes_axes,
+    routes_control,
     routes_controllers,
     routes_loops,
     routes_operations,
     routes_session,
     ws,
 )
-from gateway.api.audit import AuditLog, install_audit, resolution_entry
+from gateway.api.audit import AuditLog, control_entry, install_audit, resolution_entry
 from gateway.api.body_gate import BodyGate
 from gateway.api.dashboard import install_dashboard
 from gateway.api.hardening import HardeningMiddleware
@@ -77,7 +78,17 @@ def create_app(gateway: Gateway, *, auth: AuthConfig) -> FastAPI:
     leases = Leases()
     operations = Operations(gateway)
     operations.on_resolved(lambda op: audit.record(resolution_entry(op, API_PREFIX)))
-    feed = Feed(gateway.topology, gateway.state, gateway.events, gateway.config.ws)
+    # An admin's change of the control state is its request's entry; a key switch's has none.
+    gateway.control.listen(
+        lambda change: (
+            audit.record(control_entry(change, API_PREFIX))
+            if change.source == "key_switch"
+            else None
+        )
+    )
+    feed = Feed(
+        gateway.topology, gateway.state, gateway.events, gateway.config.ws, control=gateway.control
+    )
 
     install_log_redaction()  # no token in any log line, whoever prints it
 
@@ -109,7 +120,15 @@ def create_app(gateway: Gateway, *, auth: AuthConfig) -> FastAPI:
     app.state.axes = AxisService(gateway, operations, leases)
     app.state.controllers = ControllerService(gateway, leases, operations)
     app.state.stops = StopAll(gateway, operations)
-    modules = (routes_axes, routes_operations, routes_controllers, routes_loops, routes_session, ws)
+    modules = (
+        routes_axes,
+        routes_operations,
+        routes_controllers,
+        routes_loops,
+        routes_control,
+        routes_session,
+        ws,
+    )
     for module in modules:
         app.include_router(module.router, prefix=API_PREFIX)
     ws.install_ws(app, feed)

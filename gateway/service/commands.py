@@ -8,6 +8,9 @@ I/O, sensor logic, mode, EEPROM and program resources) goes through ``CommandRun
   framing, or switch program autostart need admin (rule ``ROLE_RULE``). Queries of those
   settings stay operator. ``I`` is never sent this way: it leaves the controller reading
   program text, so the next command would become part of a program (``PUT .../program``).
+* **Remote control**: a controller in local control (``gateway.service.control``) refuses
+  every command that changes something (409 naming the state and who set it); queries and
+  stops pass.
 * **Leases**: a request that changes something checks the controller's lease and both its
   axes' (``Leases.check``); stops (``S``, ``SS``, ``GE``, ``GES``, ``GS``) never are refused.
 * **The manual's refusals**, checked before sending against the state cache: a form refused
@@ -115,6 +118,13 @@ class CommandRunner:
         if any(_changes_something(c) and c.form.effect is not Effect.STOP for c in commands):
             self.leases.check(holder, [ref.id, *(a.id for a in ref.axes)])
 
+    def check_control(self, ref: ControllerRef, commands: Sequence[Command]) -> None:
+        """409 when ``ref`` is in local control and a command changes something; queries and
+        stops (S, SS, GE, GES, GS) pass (``gateway.service.control``)."""
+        for command in commands:
+            if _changes_something(command) and command.form.effect is not Effect.STOP:
+                self.gateway.control.check(ref, f"send {command.wire()!r}")
+
     def check_state(self, ref: ControllerRef, commands: Sequence[Command]) -> None:
         """The manual's refusals, against the cached state (module docstring)."""
         ctl = self.gateway.state.controller(ref.loop, ref.body)
@@ -164,6 +174,7 @@ class CommandRunner:
         cmds = [commands] if isinstance(commands, Command) else list(commands)
         for command in cmds:
             self.refuse_unsendable(command)
+        self.check_control(ref, cmds)
         self.check_lease(ref, cmds, holder)
         self.check_state(ref, cmds)
         guarded = await self.limits.guard(ref, cmds, motor, field)
