@@ -21,6 +21,7 @@ from fastapi.middleware.cors import CORSMiddleware
 from gateway import __version__
 from gateway.api import (
     routes_axes,
+    routes_baud,
     routes_control,
     routes_controllers,
     routes_loops,
@@ -39,6 +40,7 @@ from gateway.api.problems import install_problem_handlers
 from gateway.api.redaction import install_log_redaction
 from gateway.api.security import AuthConfig, install_security
 from gateway.service.axes import AxisService
+from gateway.service.baud import BaudChanger
 from gateway.service.controllers import ControllerService
 from gateway.service.feed import Feed
 from gateway.service.gateway import Gateway
@@ -87,7 +89,12 @@ def create_app(gateway: Gateway, *, auth: AuthConfig) -> FastAPI:
         )
     )
     feed = Feed(
-        gateway.topology, gateway.state, gateway.events, gateway.config.ws, control=gateway.control
+        gateway.topology,
+        gateway.state,
+        gateway.events,
+        gateway.config.ws,
+        control=gateway.control,
+        loop_baud=lambda name: gateway.scheduler(name).timing.baud,
     )
 
     install_log_redaction()  # no token in any log line, whoever prints it
@@ -120,12 +127,14 @@ def create_app(gateway: Gateway, *, auth: AuthConfig) -> FastAPI:
     app.state.axes = AxisService(gateway, operations, leases)
     app.state.controllers = ControllerService(gateway, leases, operations)
     app.state.stops = StopAll(gateway, operations)
+    app.state.baud = BaudChanger(gateway)
     modules = (
         routes_axes,
         routes_operations,
         routes_controllers,
         routes_loops,
         routes_control,
+        routes_baud,
         routes_session,
         ws,
     )

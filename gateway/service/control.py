@@ -136,6 +136,7 @@ class ControlStates:
         self.topology, self.events, self._clock = topology, events, clock
         self._controllers: dict[str, _Admin] = {}
         self._loops: dict[str, _Admin] = {}
+        self._holds: dict[str, str] = {}
         now = clock()
         self._switches: dict[str, _Switch] = {}
         for ref in topology.controllers():
@@ -179,7 +180,14 @@ class ControlStates:
         ]
 
     def check(self, ref: ControllerRef, what: str) -> None:
-        """409 when ``ref`` is local: ``what`` (``move sim.1.1``, ``send '2100'``) is refused."""
+        """409 when ``ref`` is local: ``what`` (``move sim.1.1``, ``send '2100'``) is refused.
+        Also while its loop is held by a maintenance operation (``hold``)."""
+        held = self._holds.get(ref.loop)
+        if held is not None:
+            raise ConflictError(
+                f"cannot {what}: loop {ref.loop} is held ({held}); stops are accepted",
+                field="loop",
+            )
         sources = self._sources(ref)
         if not sources:
             return
@@ -190,6 +198,15 @@ class ControlStates:
             "accepted",
             field="control",
         )
+
+    def hold(self, loop: str, why: str) -> None:
+        """Refuse motion and settings on every controller of ``loop`` until ``release``
+        (a rate change in progress); not a control state: the views do not change."""
+        self._holds[loop] = why
+
+    def release(self, loop: str) -> None:
+        """End ``hold``."""
+        self._holds.pop(loop, None)
 
     # ------------------------------------------------------------------ changing
 

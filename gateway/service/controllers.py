@@ -148,7 +148,9 @@ class ControllerService:
             counters={k: v for k, v in counters.items() if isinstance(v, int | float)},
         )
         settings = ref.settings
-        return loop_view(ref.name, settings.port, settings.baud, list(ref.bodies), state)
+        # The rate the port uses now: POST /loops/{loop}/baud changes it at run time.
+        baud = scheduler.timing.baud
+        return loop_view(ref.name, settings.port, baud, list(ref.bodies), state)
 
     # ------------------------------------------------------------------ commands
 

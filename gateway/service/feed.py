@@ -159,10 +159,13 @@ class Feed:
         *,
         clock: Callable[[], float] = time.time,
         control: ControlStates | None = None,
+        loop_baud: Callable[[str], int] | None = None,
     ) -> None:
         self.topology, self.cache = topology, cache
         #: the controllers' control state, shown in controller and axis views
         self.control = control or ControlStates(topology)
+        #: a loop's rate now (it changes with ``POST /loops/{loop}/baud``); None: configured
+        self._loop_baud = loop_baud
         self.settings = settings or WsSettings()
         self._clock = clock
         self.seq = 0
@@ -265,6 +268,8 @@ class Feed:
         else:
             loop = self.topology.loop(ident)
             port, baud = loop.settings.port, loop.settings.baud
+            if self._loop_baud is not None:
+                baud = self._loop_baud(loop.name)
             view = loop_view(loop.name, port, baud, list(loop.bodies), self.cache.loop(ident))
         return view.model_dump(mode="json")
 

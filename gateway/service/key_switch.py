@@ -40,6 +40,15 @@ class KeySwitchReader:
     ) -> None:
         self.topology, self.control, self.schedulers = topology, control, schedulers
         self._tasks: list[asyncio.Task[None]] = []
+        self._paused: set[str] = set()
+
+    def pause(self, loop: str) -> None:
+        """Read nothing on ``loop`` until ``resume`` (its rate is being changed)."""
+        self._paused.add(loop)
+
+    def resume(self, loop: str) -> None:
+        """Read ``loop`` again."""
+        self._paused.discard(loop)
 
     def start(self) -> None:
         """Start reading (nothing to do when no controller has a key switch)."""
@@ -82,7 +91,7 @@ class KeySwitchReader:
         scheduler = self.schedulers[loop]
         period = self.topology.loop(loop).settings.poll.idle_period / scheduler.config.time_scale
         while True:
-            for ref in refs:
+            for ref in refs if loop not in self._paused else ():
                 try:
                     await self.read(ref)
                 except asyncio.CancelledError:
