@@ -67,10 +67,11 @@ _REFUSED = {
     "I": "I opens program reception: the controller would take the next command as program "
     "text; upload programs with PUT /controllers/{id}/program (§10 I)",
     # ES moves one controller to another rate: the gateway would lose it (and with a rate
-    # other than the loop's, the whole loop hears noise from it). The loop's rate is
-    # configuration (loops[].baud); set the controllers with the procedure of §10 ES.
-    "ES{bp}": "the baud rate of a loop is its configuration (loops[].baud): changing one "
-    "controller's rate through the gateway would cut it off the loop (§10 ES)",
+    # other than the loop's, the whole loop hears noise from it). A loop's rate changes as a
+    # whole: every controller, then the port (POST /loops/{loop}/baud, gateway.service.baud).
+    "ES{bp}": "the baud rate of a loop is its configuration (loops[].baud), changed for every "
+    "controller and the port at once with POST /loops/{loop}/baud: changing one controller's "
+    "rate alone would cut it off the loop (§10 ES)",
 }
 
 
