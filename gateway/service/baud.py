@@ -110,15 +110,10 @@ class BaudChanger:
             raise ConflictError(f"the rate of loop {ref.name} is being changed", field="loop")
         self._check(ref.controllers, scheduler)
         self._busy.add(ref.name)
-        try:
-            with self._held(ref.name):
-                await self.gateway.pollers[ref.name].stop()
-                try:
-                    outcome = await self._move(ref.controllers, scheduler, old, baud)
-                finally:
-                    self.gateway.pollers[ref.name].start()
-        finally:
-            self._busy.discard(ref.name)
+        # Shielded: a client that goes away mid-change must not leave the loop half moved
+        # (the roll-back is part of the change); the task runs to its end either way.
+        task = asyncio.ensure_future(self._held_move(ref.name, ref.controllers, old, baud))
+        outcome = await asyncio.shield(task)
         now = scheduler.timing.baud
         outcome.configuration = (
             f"set baud = {now} in the [[loops]] entry of {ref.name}: the gateway does not write "
@@ -150,6 +145,20 @@ class BaudChanger:
                 raise ConflictError(
                     f"the user program of {ref.id} runs: stop it first (GE)", field="loop"
                 )
+
+    async def _held_move(
+        self, loop: str, controllers: tuple[ControllerRef, ...], old: int, baud: int
+    ) -> BaudChange:
+        scheduler = self.gateway.scheduler(loop)
+        try:
+            with self._held(loop):
+                await self.gateway.pollers[loop].stop()
+                try:
+                    return await self._move(controllers, scheduler, old, baud)
+                finally:
+                    self.gateway.pollers[loop].start()
+        finally:
+            self._busy.discard(loop)
 
     @contextlib.contextmanager
     def _held(self, loop: str) -> Iterator[None]:
