@@ -4,9 +4,12 @@ does not follow makes the others go back."""
 
 from __future__ import annotations
 
+import asyncio
+
+from gateway.bus.events import LinkDown
 from gateway.sim.control import Controls
 
-from .sim_app import Api, auth, json_of, running_app
+from .sim_app import WAIT, Api, auth, json_of, running_app
 
 
 def _rates(api: Api) -> dict[str, int]:
@@ -102,3 +105,27 @@ async def test_bad_rates_and_roles_are_refused_before_anything_is_sent() -> None
         assert r.status_code == 409 and "local control" in json_of(r)["detail"], r.text
         assert not [t for t in api.heard("1", mark) if t.startswith("ES")]
         assert _rates(api) == {"1": 9600, "host": 9600}
+
+
+async def test_the_loop_is_held_while_its_rate_changes() -> None:
+    async with running_app(("1",), roles=True) as api:
+        scheduler = api.gateway.scheduler("sim")
+        reopening = asyncio.Event()
+        scheduler.events.subscribe(lambda e: reopening.set() if isinstance(e, LinkDown) else None)
+        change = asyncio.create_task(
+            api.client.post("/loops/sim/baud", json={"baud": 300}, headers=auth("admin"))
+        )
+        await asyncio.wait_for(reopening.wait(), WAIT)  # the ES went out, the port reopens
+        mark = api.mark()
+        r = await api.client.post(
+            "/axes/x/move", json={"position": 3, "unit": "user"}, headers=auth("operator")
+        )
+        assert r.status_code == 409, r.text
+        assert "baud rate is being changed" in json_of(r)["detail"]
+        r = await api.client.post("/loops/sim/baud", json={"baud": 1200}, headers=auth("admin"))
+        assert r.status_code == 409, r.text
+        done = await change
+        assert done.status_code == 200 and json_of(done)["outcome"] == "done", done.text
+        assert not [t for t in api.heard("1", mark) if t[:1] in ("2", "3")]
+        assert _rates(api) == {"1": 300, "host": 300}
+        await _move_x(api)  # released afterwards, and the loop works at 300 bps
