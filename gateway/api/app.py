@@ -21,13 +21,15 @@ from fastapi.middleware.cors import CORSMiddleware
 from gateway import __version__
 from gateway.api import (
     routes_axes,
+    routes_baud,
+    routes_control,
     routes_controllers,
     routes_loops,
     routes_operations,
     routes_session,
     ws,
 )
-from gateway.api.audit import AuditLog, install_audit, resolution_entry
+from gateway.api.audit import AuditLog, control_entry, install_audit, resolution_entry
 from gateway.api.body_gate import BodyGate
 from gateway.api.dashboard import install_dashboard
 from gateway.api.hardening import HardeningMiddleware
@@ -38,6 +40,7 @@ from gateway.api.problems import install_problem_handlers
 from gateway.api.redaction import install_log_redaction
 from gateway.api.security import AuthConfig, install_security
 from gateway.service.axes import AxisService
+from gateway.service.baud import BaudChanger
 from gateway.service.controllers import ControllerService
 from gateway.service.feed import Feed
 from gateway.service.gateway import Gateway
@@ -77,7 +80,22 @@ def create_app(gateway: Gateway, *, auth: AuthConfig) -> FastAPI:
     leases = Leases()
     operations = Operations(gateway)
     operations.on_resolved(lambda op: audit.record(resolution_entry(op, API_PREFIX)))
-    feed = Feed(gateway.topology, gateway.state, gateway.events, gateway.config.ws)
+    # An admin's change of the control state is its request's entry; a key switch's has none.
+    gateway.control.listen(
+        lambda change: (
+            audit.record(control_entry(change, API_PREFIX))
+            if change.source == "key_switch"
+            else None
+        )
+    )
+    feed = Feed(
+        gateway.topology,
+        gateway.state,
+        gateway.events,
+        gateway.config.ws,
+        control=gateway.control,
+        loop_baud=lambda name: gateway.scheduler(name).timing.baud,
+    )
 
     install_log_redaction()  # no token in any log line, whoever prints it
 
@@ -109,7 +127,17 @@ def create_app(gateway: Gateway, *, auth: AuthConfig) -> FastAPI:
     app.state.axes = AxisService(gateway, operations, leases)
     app.state.controllers = ControllerService(gateway, leases, operations)
     app.state.stops = StopAll(gateway, operations)
-    modules = (routes_axes, routes_operations, routes_controllers, routes_loops, routes_session, ws)
+    app.state.baud = BaudChanger(gateway)
+    modules = (
+        routes_axes,
+        routes_operations,
+        routes_controllers,
+        routes_loops,
+        routes_control,
+        routes_baud,
+        routes_session,
+        ws,
+    )
     for module in modules:
         app.include_router(module.router, prefix=API_PREFIX)
     ws.install_ws(app, feed)

@@ -30,6 +30,7 @@ from gateway.api.problems import PROBLEM_RESPONSES
 from gateway.api.redaction import redact
 from gateway.api.security import Principal, principal_of, require
 from gateway.errors import InvalidInputError
+from gateway.service.control import ControlChange
 from gateway.service.operation_types import Operation
 from gateway.service.roles import Role
 
@@ -40,6 +41,7 @@ __all__ = [
     "AuditMiddleware",
     "AuditPage",
     "audit_note",
+    "control_entry",
     "install_audit",
     "resolution_entry",
     "router",
@@ -73,6 +75,22 @@ def resolution_entry(op: Operation, prefix: str) -> dict[str, Any]:
         "position_before": op.position_before,
         "position_after": op.position,
         "operation": op.view().model_dump(mode="json"),
+    }
+
+
+def control_entry(change: ControlChange, prefix: str) -> dict[str, Any]:
+    """The entry of a control change no request made (a key switch read by the gateway)."""
+    ref = change.controller
+    return {
+        "time": utc_now(),
+        "token": None,
+        "method": "INPUT",
+        "path": f"{prefix}/controllers/{ref.id}/control",
+        "event": "control_changed",
+        "result": change.view.state.value,
+        "previous": change.previous.value,
+        "cause": change.cause,
+        "control": change.view.model_dump(mode="json"),
     }
 
 

@@ -74,6 +74,7 @@ TAGS: tuple[tuple[str, str, str], ...] = (
     (r"^/(healthz|readyz)$", "health", "Liveness and readiness probes"),
     (r"^/metrics$", "metrics", "Prometheus exposition"),
     (r"/lease$", "leases", "Control leases on axes and controllers"),
+    (r"/control$", "control", "Local and remote control: lock out motion from the network"),
     (r"/program(/|$)", "programs", "User programs (chapters 11-12): upload, run, data"),
     (r"/axes(/|$)", "axes", "Axes: state, motion, speed, errors"),
     (r"/operations(/|$)", "operations", "Motion operations and how they went"),

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import dataclasses
 import logging
 import time
 from collections.abc import Callable
@@ -129,6 +130,16 @@ class LoopLifecycle:
     def down_error(self) -> LoopDown:
         """The error of a request refused because the loop is not up (with its retry hint)."""
         return self._down_error()
+
+    def reopen_at(self, baud: int) -> None:
+        """Reopen the port at ``baud`` (the controllers were moved there with ``ES``, §10 ES):
+        the timing and the transport take the new rate, then the link is lost on purpose and
+        the run loop reconnects as after any loss (one LinkDown, queued requests fail with
+        LoopDown; the controllers that answered before are probed at the new rate)."""
+        timing = dataclasses.replace(self.timing, baud=baud)
+        self.timing = self._link.timing = self._core.timing = timing
+        self.transport.baud = baud
+        self._link.lose(f"reopening the port at {baud} bps")
 
     def use_state(self, state: StateCache) -> None:
         """Feed ``state`` with every event before any other subscriber, and read from it

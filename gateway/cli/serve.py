@@ -21,7 +21,6 @@ import gc
 import logging
 import socket
 import sys
-from collections.abc import Callable
 from pathlib import Path
 from types import FrameType
 from typing import Any
@@ -156,12 +155,22 @@ def _simulated(
             bodies, series=series, scene=scene, eeprom_dir=eeproms, clock=SimClock(args.time_scale)
         )
         sims.append(sim)
-        transports[name] = PipeTransport(_port_of(sim))
+        transports[name] = sim_line(sim)
     return config, sims, transports
 
 
-def _port_of(sim: SimLoop) -> Callable[[], SimPort]:
-    return lambda: SimPort(sim)
+def sim_line(sim: SimLoop) -> PipeTransport:
+    """The in-process line to ``sim``: opened at another rate (``POST /loops/{loop}/baud``),
+    it sets the simulated line's rate, the host's UART, so controllers at another rate hear
+    noise as on a real line."""
+
+    def connect() -> SimPort:
+        if sim.baud != line.baud:
+            Controls(sim).baud(line.baud)
+        return SimPort(sim)
+
+    line = PipeTransport(connect)
+    return line
 
 
 def _auth(args: argparse.Namespace, config: GatewayConfig) -> AuthConfig:

@@ -3,7 +3,9 @@
 Every check a request can fail is made before anything is sent: the lease (the axis and its
 controller), the controller online and not moving (§2: its two motors never move together; a
 motion command while one moves is ignored with a command error, §9-1 注意), units, the soft
-limits and the position counter (§7-4). Stops skip all of it: **a stop is never refused**.
+limits and the position counter (§7-4), and first of all remote control (a controller in
+local control refuses motion and settings from the network, ``gateway.service.control``).
+Stops skip all of it: **a stop is never refused**.
 
 Commands (§10, as the catalog defines them; per-motor commands go with ``motor=`` and the
 scheduler sends ``F`` when the selection differs):
@@ -96,14 +98,16 @@ class AxisService:
     def view(self, ident: str) -> AxisView:
         """The cached view of one axis (no line traffic)."""
         ref = self.ref(ident)
-        return axis_view(ref, self.gateway.state.axis(ref.loop, ref.body, ref.motor))
+        return self._view(ref)
 
     def views(self) -> list[AxisView]:
         """Every axis, cached."""
-        state = self.gateway.state
-        return [
-            axis_view(a, state.axis(a.loop, a.body, a.motor)) for a in self.gateway.topology.axes()
-        ]
+        return [self._view(a) for a in self.gateway.topology.axes()]
+
+    def _view(self, ref: AxisRef) -> AxisView:
+        state = self.gateway.state.axis(ref.loop, ref.body, ref.motor)
+        controller = self.gateway.topology.controller(ref.controller_id)
+        return axis_view(ref, state, self.gateway.control.view(controller))
 
     async def fresh(self, ident: str) -> AxisView:
         """Read status and position now (``""``, ``6{mt}``) and return the new view."""
@@ -193,7 +197,9 @@ class AxisService:
                     "change while it runs (H, L act on 7/8 only, §10 H, L): stop it first",
                     field="body.speed",
                 )
-            # The same jog: only its speed changes (§10 H, L work while turning).
+            # The same jog: only its speed changes (§10 H, L work while turning); a setting
+            # from the network, refused in local control like any other.
+            self._remote(ref, "change the jog speed of")
             await self._submit(ref, [parse("H" if speed is JogSpeed.HIGH else "L")], motor=None)
             active.request["speed"] = speed.value
             return active
@@ -299,7 +305,8 @@ class AxisService:
         return self.gateway.topology.controller(ref.controller_id).series.value
 
     def _may_act(self, ref: AxisRef, holder: str, what: str = "move") -> None:
-        """Leases, the controller online and not moving; nothing sent yet."""
+        """Remote control, leases, the controller online and not moving; nothing sent yet."""
+        self._remote(ref, what)
         self.leases.check(holder, (ref.id, ref.controller_id))
         scheduler = self.gateway.scheduler(ref.loop)
         if scheduler.state is not LinkState.UP:
@@ -320,6 +327,11 @@ class AxisService:
                 "ignored with a command error (§9-1)",
                 field="axis",
             )
+
+    def _remote(self, ref: AxisRef, what: str) -> None:
+        """409 when the axis's controller is in local control (``gateway.service.control``)."""
+        controller = self.gateway.topology.controller(ref.controller_id)
+        self.gateway.control.check(controller, f"{what} {ref.id}")
 
     async def _current(self, ref: AxisRef) -> int:
         """The axis's position: cached, or read now when not known or stale."""

@@ -8,6 +8,9 @@ I/O, sensor logic, mode, EEPROM and program resources) goes through ``CommandRun
   framing, or switch program autostart need admin (rule ``ROLE_RULE``). Queries of those
   settings stay operator. ``I`` is never sent this way: it leaves the controller reading
   program text, so the next command would become part of a program (``PUT .../program``).
+* **Remote control**: a controller in local control (``gateway.service.control``) refuses
+  every command that changes something (409 naming the state and who set it); queries and
+  stops pass.
 * **Leases**: a request that changes something checks the controller's lease and both its
   axes' (``Leases.check``); stops (``S``, ``SS``, ``GE``, ``GES``, ``GS``) never are refused.
 * **The manual's refusals**, checked before sending against the state cache: a form refused
@@ -64,10 +67,11 @@ _REFUSED = {
     "I": "I opens program reception: the controller would take the next command as program "
     "text; upload programs with PUT /controllers/{id}/program (§10 I)",
     # ES moves one controller to another rate: the gateway would lose it (and with a rate
-    # other than the loop's, the whole loop hears noise from it). The loop's rate is
-    # configuration (loops[].baud); set the controllers with the procedure of §10 ES.
-    "ES{bp}": "the baud rate of a loop is its configuration (loops[].baud): changing one "
-    "controller's rate through the gateway would cut it off the loop (§10 ES)",
+    # other than the loop's, the whole loop hears noise from it). A loop's rate changes as a
+    # whole: every controller, then the port (POST /loops/{loop}/baud, gateway.service.baud).
+    "ES{bp}": "the baud rate of a loop is its configuration (loops[].baud), changed for every "
+    "controller and the port at once with POST /loops/{loop}/baud: changing one controller's "
+    "rate alone would cut it off the loop (§10 ES)",
 }
 
 
@@ -114,6 +118,13 @@ class CommandRunner:
         """The lease rule: changing anything needs the controller and both axes free."""
         if any(_changes_something(c) and c.form.effect is not Effect.STOP for c in commands):
             self.leases.check(holder, [ref.id, *(a.id for a in ref.axes)])
+
+    def check_control(self, ref: ControllerRef, commands: Sequence[Command]) -> None:
+        """409 when ``ref`` is in local control and a command changes something; queries and
+        stops (S, SS, GE, GES, GS) pass (``gateway.service.control``)."""
+        for command in commands:
+            if _changes_something(command) and command.form.effect is not Effect.STOP:
+                self.gateway.control.check(ref, f"send {command.wire()!r}")
 
     def check_state(self, ref: ControllerRef, commands: Sequence[Command]) -> None:
         """The manual's refusals, against the cached state (module docstring)."""
@@ -164,6 +175,7 @@ class CommandRunner:
         cmds = [commands] if isinstance(commands, Command) else list(commands)
         for command in cmds:
             self.refuse_unsendable(command)
+        self.check_control(ref, cmds)
         self.check_lease(ref, cmds, holder)
         self.check_state(ref, cmds)
         guarded = await self.limits.guard(ref, cmds, motor, field)

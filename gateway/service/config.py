@@ -38,6 +38,7 @@ __all__ = [
     "ConfigError",
     "ControllerSettings",
     "GatewayConfig",
+    "LocalInputSettings",
     "LoopSettings",
     "MqttSettings",
     "PollSettings",
@@ -82,6 +83,16 @@ class AxisSettings(_Strict):
         return self
 
 
+class LocalInputSettings(_Strict):
+    """A key switch wired to a general input: while it is active the controller is in local
+    control (motion and settings from the network refused, stops accepted). Read with ``C``
+    (§10 C form I: the general input port, bit 0-7 = pins 13-20, 1 = ON)."""
+
+    bit: int = Field(ge=0, le=7, description="general input bit 0-7 (§10 C)")
+    #: the input level that means local: "on" (the switch closes the input) or "off"
+    active: Literal["on", "off"] = "on"
+
+
 class ControllerSettings(_Strict):
     """One RC-233 on a loop."""
 
@@ -89,6 +100,8 @@ class ControllerSettings(_Strict):
     name: Name | None = None
     series: Literal["$", "#"] = "$"
     axes: list[AxisSettings] = Field(default_factory=list, max_length=2)
+    #: a key switch for local control, read every poll period (``poll.idle_period``)
+    local_input: LocalInputSettings | None = None
 
     @model_validator(mode="after")
     def _motors_once(self) -> Self:

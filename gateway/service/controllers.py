@@ -28,6 +28,7 @@ from gateway.errors import InvalidInputError, NotFoundError
 from gateway.protocol.models import Command
 from gateway.protocol.registry import parse
 from gateway.service.commands import CommandRunner, LeaseCheck
+from gateway.service.control import ControlView
 from gateway.service.ctl_models import RawRequest
 from gateway.service.ctl_replies import CommandResponse, response_of
 from gateway.service.ctl_resources import ControllerResources
@@ -111,14 +112,18 @@ class ControllerService:
         """Every controller, as cached."""
         state = self.gateway.state
         return [
-            controller_view(ref, state.controller(ref.loop, ref.body))
+            controller_view(ref, state.controller(ref.loop, ref.body), self._control(ref))
             for ref in self.gateway.topology.controllers()
         ]
 
     def view(self, ident: str) -> ControllerView:
         """One controller, as cached."""
         ref = self.controller(ident)
-        return controller_view(ref, self.gateway.state.controller(ref.loop, ref.body))
+        state = self.gateway.state.controller(ref.loop, ref.body)
+        return controller_view(ref, state, self._control(ref))
+
+    def _control(self, ref: ControllerRef) -> ControlView:
+        return self.gateway.control.view(ref)
 
     async def fresh_view(self, ident: str) -> ControllerView:
         """One controller after reading its status now (``FRESH_READS``)."""
@@ -143,7 +148,9 @@ class ControllerService:
             counters={k: v for k, v in counters.items() if isinstance(v, int | float)},
         )
         settings = ref.settings
-        return loop_view(ref.name, settings.port, settings.baud, list(ref.bodies), state)
+        # The rate the port uses now: POST /loops/{loop}/baud changes it at run time.
+        baud = scheduler.timing.baud
+        return loop_view(ref.name, settings.port, baud, list(ref.bodies), state)
 
     # ------------------------------------------------------------------ commands
 

@@ -26,6 +26,7 @@ class EventKind(StrEnum):
     OPERATION = "operation"  # an operation was queued, sent, moving, done, failed, unknown
     LINK = "link"  # a loop went down or came up
     ERROR = "error"  # an error latched or acknowledged
+    CONTROL = "control"  # a controller went local or remote (or why it is local changed)
 
 
 @dataclass(frozen=True)

@@ -38,6 +38,7 @@ from gateway.bus.state import StateCache
 from gateway.bus.state_types import Change
 from gateway.errors import InvalidInputError, NotFoundError
 from gateway.service.config import WsSettings
+from gateway.service.control import ControlStates
 from gateway.service.events import EventKind, ServiceEvent, ServiceEvents
 from gateway.service.topology import Topology
 from gateway.service.views import axis_view, controller_view, loop_view
@@ -157,8 +158,14 @@ class Feed:
         settings: WsSettings | None = None,
         *,
         clock: Callable[[], float] = time.time,
+        control: ControlStates | None = None,
+        loop_baud: Callable[[str], int] | None = None,
     ) -> None:
         self.topology, self.cache = topology, cache
+        #: the controllers' control state, shown in controller and axis views
+        self.control = control or ControlStates(topology)
+        #: a loop's rate now (it changes with ``POST /loops/{loop}/baud``); None: configured
+        self._loop_baud = loop_baud
         self.settings = settings or WsSettings()
         self._clock = clock
         self.seq = 0
@@ -251,13 +258,18 @@ class Feed:
         view: BaseModel
         if kind == "axis":
             ref = self.topology.axis(ident)
-            view = axis_view(ref, self.cache.axis(ref.loop, ref.body, ref.motor))
+            ctl = self.topology.controller(ref.controller_id)
+            control = self.control.view(ctl)
+            view = axis_view(ref, self.cache.axis(ref.loop, ref.body, ref.motor), control)
         elif kind == "controller":
             ctl = self.topology.controller(ident)
-            view = controller_view(ctl, self.cache.controller(ctl.loop, ctl.body))
+            control = self.control.view(ctl)
+            view = controller_view(ctl, self.cache.controller(ctl.loop, ctl.body), control)
         else:
             loop = self.topology.loop(ident)
             port, baud = loop.settings.port, loop.settings.baud
+            if self._loop_baud is not None:
+                baud = self._loop_baud(loop.name)
             view = loop_view(loop.name, port, baud, list(loop.bodies), self.cache.loop(ident))
         return view.model_dump(mode="json")
 
@@ -308,6 +320,10 @@ class Feed:
             topic = f"controller:{change.loop}.{change.body}"
         else:
             topic = f"axis:{change.loop}.{change.body}.{change.motor}"
+        self._refresh(topic, change.seq)
+
+    def _refresh(self, topic: str, state_seq: int) -> None:
+        """Publish ``topic``'s view when what a client sees of it moved."""
         last = self._views.get(topic)
         if last is None:  # not a configured resource: nobody can subscribe to it
             return
@@ -317,10 +333,16 @@ class Feed:
             return
         self._views[topic] = view
         kind = topic.partition(":")[0]
-        body = {"type": "change", "topic": topic, "state_seq": change.seq, "changed": changed}
+        body = {"type": "change", "topic": topic, "state_seq": state_seq, "changed": changed}
         self._publish((topic, f"{kind}:*"), {**body, "data": view})
 
     def _on_event(self, event: ServiceEvent) -> None:
+        if event.kind is EventKind.CONTROL:
+            # The views that show the control state change first, then the event says why.
+            controller = str(event.data.get("controller"))
+            axes = [str(a) for a in event.data.get("axes", ())]
+            for topic in (f"controller:{controller}", *(f"axis:{a}" for a in axes)):
+                self._refresh(topic, self.cache.seq)
         kind = str(event.kind)
         topic = f"event:{kind}"
         body = {"type": "event", "topic": topic, "kind": kind, "resource": event.topic}

@@ -28,7 +28,9 @@ from gateway.bus.state import StateCache
 from gateway.protocol.framing import Series
 from gateway.protocol.reply_parser import UnsolicitedKind
 from gateway.service.config import GatewayConfig, LoopSettings
+from gateway.service.control import ControlStates
 from gateway.service.events import EventKind, ServiceEvent, ServiceEvents
+from gateway.service.key_switch import KeySwitchReader
 from gateway.service.topology import LoopRef, Topology
 from gateway.transport.base import Transport
 from gateway.transport.factory import open_transport
@@ -102,6 +104,9 @@ class Gateway:
                 scheduler, self.state, ref.bodies, poll_config(settings)
             )
             scheduler.events.subscribe(self._relay)
+        #: local/remote control of every controller, and the key switches' reader
+        self.control = ControlStates(self.topology, self.events)
+        self.key_switches = KeySwitchReader(self.topology, self.control, self.schedulers)
         if transports:
             raise ValueError(f"transports for loops not configured: {sorted(transports)}")
 
@@ -115,9 +120,11 @@ class Gateway:
             scheduler = self.schedulers[name]
             if scheduler.state is not LinkState.UP:
                 log.warning("loop %s is not up yet: %s", name, scheduler.cause)
+        self.key_switches.start()
 
     async def close(self, *, drain: float = DRAIN_SECONDS) -> None:
         """Stop polling, let each loop's transaction in flight finish, close the ports."""
+        await self.key_switches.stop()
         await asyncio.gather(*(p.stop() for p in self.pollers.values()))
         await asyncio.gather(*(s.close(drain=drain) for s in self.schedulers.values()))
 

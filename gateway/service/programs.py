@@ -75,6 +75,7 @@ class ProgramService:
         """Validate ``text`` (chapters 11-12) and upload it (``I`` + text + CR)."""
         program = self.check(text)
         command = parse("I")
+        self.runner.check_control(ref, [command])
         self.runner.check_lease(ref, [command], holder)
         self.runner.check_state(ref, [command])
         scheduler = self.runner.gateway.scheduler(ref.loop)

@@ -15,6 +15,7 @@ from pydantic import BaseModel, Field, TypeAdapter
 
 from gateway.bus.counters import CountersSnapshot
 from gateway.bus.state_types import AxisState, ControllerState, ErrorKind, Latch, LoopState
+from gateway.service.control import ControlView
 from gateway.service.topology import AxisRef, ControllerRef
 
 __all__ = [
@@ -82,6 +83,10 @@ class AxisView(BaseModel):
     soft_max: float | None = Field(description="soft limit in `unit` (configuration)")
     stale: bool = Field(description="no fresh reading for a while (the controller may be off)")
     updated: float | None = Field(description="seconds since the epoch of the last reading")
+    control: ControlView = Field(
+        description="its controller's control state: local refuses motion and settings from "
+        "the network (stops pass)"
+    )
 
 
 class LatchView(BaseModel):
@@ -113,6 +118,9 @@ class ControllerView(BaseModel):
     latched: list[LatchView]
     axes: list[str]
     updated: float | None
+    control: ControlView = Field(
+        description="local refuses motion and settings from the network (stops pass)"
+    )
 
 
 class LoopView(BaseModel):
@@ -141,7 +149,7 @@ def axis_units(ref: AxisRef) -> dict[str, str]:
     }
 
 
-def axis_view(ref: AxisRef, state: AxisState) -> AxisView:
+def axis_view(ref: AxisRef, state: AxisState, control: ControlView) -> AxisView:
     """The view of one axis."""
     sensors = state.sensors
     return AxisView(
@@ -175,6 +183,7 @@ def axis_view(ref: AxisRef, state: AxisState) -> AxisView:
         soft_max=ref.soft_max,
         stale=state.stale,
         updated=wall_time(state.updated),
+        control=control,
     )
 
 
@@ -189,7 +198,9 @@ def _latch(latch: Latch) -> LatchView:
     )
 
 
-def controller_view(ref: ControllerRef, state: ControllerState) -> ControllerView:
+def controller_view(
+    ref: ControllerRef, state: ControllerState, control: ControlView
+) -> ControllerView:
     """The view of one controller."""
     return ControllerView(
         id=ref.id,
@@ -207,6 +218,7 @@ def controller_view(ref: ControllerRef, state: ControllerState) -> ControllerVie
         latched=[_latch(latch) for latch in state.latched.values()],
         axes=[a.id for a in ref.axes],
         updated=wall_time(state.updated),
+        control=control,
     )
 
 

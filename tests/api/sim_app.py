@@ -25,6 +25,7 @@ from fastapi import FastAPI
 from gateway.api.app import create_app
 from gateway.api.security import AuthConfig, TokenBook, TokenEntry, hash_token
 from gateway.bus.state_types import ControllerState
+from gateway.cli.serve import sim_line
 from gateway.service.config import GatewayConfig
 from gateway.service.events import ServiceEvent
 from gateway.service.gateway import Gateway
@@ -35,8 +36,6 @@ from gateway.service.simulated import SIM_LOOP, simulated_config
 from gateway.sim.cli import build_loop
 from gateway.sim.clock import RecordKind, SimClock
 from gateway.sim.loop import SimLoop
-from gateway.sim.serve import SimPort
-from gateway.transport.pipe import PipeTransport
 from tests.state_waits import until_state
 
 #: Device seconds per real second in the API tests.
@@ -154,11 +153,11 @@ async def running_app(
     config = config or simulated_config(bodies)
     if audit_log is not None:
         config = config.model_copy(update={"audit_log": audit_log})
-    gateway = Gateway(
-        config,
-        transports={SIM_LOOP: PipeTransport(lambda: SimPort(sim))},
-        time_scale=scale,
-    )
+
+    # The in-process line of ``serve --simulate``: a port reopened at another rate (POST
+    # /loops/{loop}/baud) sets the simulated line's, and controllers at another rate hear noise.
+    line = sim_line(sim)
+    gateway = Gateway(config, transports={SIM_LOOP: line}, time_scale=scale)
     if roles:
         book = TokenBook(TokenEntry(n, role, hash_token(t)) for n, (t, role) in TOKENS.items())
         app = create_app(gateway, auth=AuthConfig(book))

@@ -28,12 +28,11 @@ from schemathesis.specs.openapi.checks import (
 from gateway.api.app import create_app
 from gateway.api.security import AuthConfig
 from gateway.cli.documents import documents
+from gateway.cli.serve import sim_line
 from gateway.service.gateway import Gateway
 from gateway.service.simulated import SIM_LOOP, simulated_config
 from gateway.sim.cli import build_loop
 from gateway.sim.clock import SimClock
-from gateway.sim.serve import SimPort
-from gateway.transport.pipe import PipeTransport
 
 SCALE = 100.0
 SCHEMA = schemathesis.openapi.from_dict(documents()["openapi.json"])
@@ -61,7 +60,7 @@ class ServerThread(threading.Thread):
         sim = build_loop(["1", "2", "3"], clock=SimClock(SCALE))
         gateway = Gateway(
             simulated_config(),
-            transports={SIM_LOOP: PipeTransport(lambda: SimPort(sim))},
+            transports={SIM_LOOP: sim_line(sim)},
             time_scale=SCALE,
         )
         app = create_app(gateway, auth=AuthConfig(no_auth=True))
