@@ -71,6 +71,38 @@ def test_the_page_comes_from_the_gateway_alone_and_shows_every_axis(
         phone.context.close()
 
 
+#: What ReDoc tries that its page's policy refuses, and only that: its search's probe of
+#: ``Function`` for a worker (it then searches in the page) and its logo from its CDN.
+REDOC_REFUSED = [
+    ["img-src", "https://cdn.redoc.ly/redoc/logo-mini-full.svg"],
+    ["script-src", "eval"],
+]
+
+
+def test_redoc_runs_from_vendored_files_under_the_pages_policy(
+    gateway: Gateway, session: Session
+) -> None:
+    page = session.page
+    page.add_init_script(
+        "window.__refused = [];"
+        "document.addEventListener('securitypolicyviolation',"
+        " e => window.__refused.push([e.effectiveDirective, e.blockedURI]));"
+    )
+    response = page.goto(gateway.url + "/api/v1/redoc")
+    assert response is not None and response.status == 200
+    policy = response.headers["content-security-policy"]
+    assert "script-src 'self';" in policy and "unsafe" not in policy
+    expect(page.locator("h1")).to_contain_text("rc233-gateway")
+    expect(page.get_by_text("loops", exact=True).first).to_be_visible()  # the tags
+    # the search works (in the page: the worker it would make needs eval)
+    page.get_by_text("Search Ctrl+K").first.click()
+    page.get_by_placeholder("Search docs...").fill("stop")
+    expect(page.get_by_text("/api/v1/loops/{loop}/stop")).to_be_visible()
+    refused = page.evaluate("window.__refused")
+    assert sorted(refused) == sorted(REDOC_REFUSED), refused
+    shot(page, "redoc")
+
+
 def test_the_guard_aborts_what_would_leave_127_0_0_1(gateway: Gateway, session: Session) -> None:
     """The check the other tests rely on: a request elsewhere is aborted and recorded (a
     navigation: the page's own fetches to other hosts are already refused by its CSP)."""
