@@ -229,7 +229,9 @@ def browser(playwright: Playwright) -> Iterator[Browser]:
     started.close()
 
 
-@pytest.fixture(scope="module")
+# One gateway for the session: starting one costs seconds, and every module leaves it as it
+# found it (test_dashboard.py's line cut is undone before that test ends).
+@pytest.fixture(scope="session")
 def gateway(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Gateway]:
     running = start_simulated(tmp_path_factory.mktemp("gateway"))
     yield running

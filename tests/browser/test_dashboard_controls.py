@@ -1,7 +1,8 @@
 """The dashboard's program console, jog guards and settings pages in a real Chromium.
 
-Against ``rc233-gateway serve --simulate`` as a process, like ``test_dashboard.py`` (its own
-gateway: these tests change the speed data, the position table and the outputs). What the
+Against ``rc233-gateway serve --simulate`` as a process, the one ``test_dashboard.py`` uses
+(these tests change z's speed data, entry 3 of controller 1's position table and output 3 of
+controller 3, which nothing else here reads). What the
 user does in the page must end on the simulated line as the frame the manual gives, read
 from the simulator's line log; the console must show what the program printed, in order.
 """
