@@ -71,6 +71,13 @@ PINS = (
             "LICENSE": "LICENSE",
         },
     ),
+    # ReDoc for /api/v1/redoc: one ES module with its styles (styled-components, CSSOM).
+    Pin(
+        "redoc",
+        "3.0.1",
+        "redoc",
+        {"bundles/redoc.standalone.js": "redoc.standalone.js", "LICENSE": "LICENSE"},
+    ),
 )
 
 

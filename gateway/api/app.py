@@ -155,7 +155,9 @@ def create_app(gateway: Gateway, *, auth: AuthConfig) -> FastAPI:
     install_openapi_docs(app)
     security = gateway.config.security
     closed = ([] if security.open_metrics else ["/metrics"]) + (
-        [] if security.open_docs else [app.openapi_url or "", f"{API_PREFIX}/docs"]
+        []
+        if security.open_docs
+        else [app.openapi_url or "", f"{API_PREFIX}/docs", f"{API_PREFIX}/redoc"]
     )
     app.add_middleware(HardeningMiddleware, closed=closed)
     origins = list(gateway.config.security.cors_origins)

@@ -7,11 +7,12 @@ recorded each file's SHA-256; a file edited by hand, truncated or left over fail
 
 from __future__ import annotations
 
+import base64
 import hashlib
 import json
 import re
 
-from gateway.api.dashboard import STATIC_DIR
+from gateway.api.dashboard import EMPTY_TEXT_HASH, STATIC_DIR
 from tests.api.sim_app import auth, json_of, running_app
 
 VENDOR = STATIC_DIR / "vendor"
@@ -32,11 +33,11 @@ def test_every_vendored_file_has_the_hash_the_manifest_records() -> None:
     }
     assert present == listed, f"not in the manifest: {present - listed}"
     names = {p["name"] for p in manifest["packages"]}
-    assert {"htm", "uplot", "swagger-ui-dist"} <= names
+    assert {"htm", "uplot", "swagger-ui-dist", "redoc"} <= names
 
 
 def test_the_page_and_the_docs_load_nothing_from_another_host() -> None:
-    for page in ("index.html", "docs.html"):
+    for page in ("index.html", "docs.html", "redoc.html"):
         html = (STATIC_DIR / page).read_text()
         assert not re.search(r"(src|href)=\"(https?:)?//", html), page
         assert "<script>" not in html  # no inline script: the CSP forbids it
@@ -57,6 +58,18 @@ async def test_dashboard_docs_and_static_files_are_served_with_csp_and_cache_hea
         docs = await api.client.get("/docs")
         assert docs.status_code == 200 and "/static/vendor/swagger-ui/" in docs.text
         assert "content-security-policy" in docs.headers
+        # ReDoc: the vendored bundle, the same policy but for the empty <style> element its
+        # styled-components fills through the CSSOM, and its data: icon font
+        redoc = await api.client.get("/redoc")
+        assert redoc.status_code == 200 and "/static/vendor/redoc/" in redoc.text
+        assert redoc.headers["cache-control"] == "no-cache"
+        policy = redoc.headers["content-security-policy"]
+        assert "script-src 'self';" in policy and "default-src 'self';" in policy
+        assert "unsafe-inline" not in policy and "unsafe-eval" not in policy
+        assert f"style-src 'self' {EMPTY_TEXT_HASH};" in policy
+        empty = base64.b64encode(hashlib.sha256(b"").digest()).decode()
+        assert f"'sha256-{empty}'" == EMPTY_TEXT_HASH  # admits an empty <style> and no other
+        assert "connect-src 'self';" in policy and "frame-ancestors 'none'" in policy
         vendored = await api.client.get(root.join("/static/vendor/uplot/uPlot.esm.js"))
         assert vendored.status_code == 200
         assert vendored.headers["cache-control"].startswith("public, max-age=")

@@ -79,7 +79,9 @@ async def closed() -> AsyncIterator[httpx.AsyncClient]:
         yield client
 
 
-@pytest.mark.parametrize("path", ["/metrics", "/api/v1/docs", "/api/v1/openapi.json"])
+@pytest.mark.parametrize(
+    "path", ["/metrics", "/api/v1/docs", "/api/v1/redoc", "/api/v1/openapi.json"]
+)
 async def test_closed_pages_need_a_token_of_any_role(closed: httpx.AsyncClient, path: str):
     refused = await closed.get(path)
     assert refused.status_code == 401

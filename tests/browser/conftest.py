@@ -136,6 +136,31 @@ class Line:
                 out.append(r["data"][2:].rstrip("\r"))
         return out
 
+    def clock(self) -> tuple[float, float]:
+        """The simulator's clock against this process's ``time.monotonic()`` (one clock for
+        every process on Linux, and the simulator's real clock): ``(offset, scale)`` with
+        ``sim time = offset + scale * monotonic``. Read from the quickest of a few ``state``
+        calls, so it is right to within half that call's round trip."""
+        best: tuple[float, float, float] | None = None
+        for _ in range(5):
+            before = time.monotonic()
+            state = self.call("state")["state"]
+            after = time.monotonic()
+            if best is None or after - before < best[0]:
+                scale = float(state["time_scale"])
+                best = (after - before, float(state["time"]) - scale * (before + after) / 2, scale)
+        assert best is not None
+        return best[1], best[2]
+
+    def heard_when(self, since: int, texts: tuple[str, ...]) -> float:
+        """When (``time.monotonic()``) a controller first heard one of ``texts`` since
+        ``since``: the simulator's own record time, not when a read of the log saw it."""
+        offset, scale = self.clock()
+        for r in self.call("trace", since=since)["trace"]:
+            if r["kind"] == "heard" and r["ref"] > 0 and r["data"][2:].rstrip("\r") in texts:
+                return (float(r["time"]) - offset) / scale
+        pytest.fail(f"no {texts} heard since record {since}")
+
     def wait_heard(
         self, since: int, check: Callable[[list[str]], bool], timeout: float = WAIT
     ) -> tuple[list[str], float]:
@@ -204,7 +229,9 @@ def browser(playwright: Playwright) -> Iterator[Browser]:
     started.close()
 
 
-@pytest.fixture(scope="module")
+# One gateway for the session: starting one costs seconds, and every module leaves it as it
+# found it (test_dashboard.py's line cut is undone before that test ends).
+@pytest.fixture(scope="session")
 def gateway(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Gateway]:
     running = start_simulated(tmp_path_factory.mktemp("gateway"))
     yield running
@@ -235,6 +262,7 @@ def open_page(browser: Browser, width: int = 1280, height: int = 800) -> Session
     # thread (which is often busy reading the simulator's line log).
     context.route(FOREIGN, refuse)
     page = context.new_page()
+    page.add_init_script(EVENT_TIMES)
     errors: list[str] = []
     page.on("pageerror", lambda exc: errors.append(str(exc)))
     page.on(
@@ -251,6 +279,40 @@ def session(browser: Browser) -> Iterator[Session]:
     yield opened
     opened.context.close()
     assert opened.foreign == [], f"the page tried to leave 127.0.0.1: {opened.foreign}"
+
+
+#: Added to a page before its own scripts: the wall-clock time (ms since the epoch, the clock
+#: ``time.time()`` reads) of the last pointerup, blur, visibilitychange and WebSocket close the
+#: page saw, recorded by listeners that run before the page's own.
+EVENT_TIMES = """
+window.__at = {};
+(() => {
+  const at = (name) => () => { window.__at[name] = performance.timeOrigin + performance.now(); };
+  for (const name of ["pointerup", "blur"]) window.addEventListener(name, at(name), true);
+  document.addEventListener("visibilitychange", at("visibilitychange"), true);
+  // Whichever WebSocket class the page gets (Playwright's route puts its own in place).
+  const watched = (Base) =>
+    class extends Base {
+      constructor(...args) {
+        super(...args);
+        this.addEventListener("close", at("websocket-close"));
+      }
+    };
+  let current = watched(window.WebSocket);
+  Object.defineProperty(window, "WebSocket", {
+    configurable: true,
+    get: () => current,
+    set: (Base) => { current = watched(Base); },
+  });
+})();
+"""
+
+
+def page_event_when(page: Page, name: str) -> float:
+    """When (``time.monotonic()``) the page last saw event ``name`` (see ``EVENT_TIMES``)."""
+    epoch_ms = page.evaluate("name => window.__at[name]", name)
+    assert epoch_ms is not None, f"the page saw no {name}"
+    return float(epoch_ms) / 1000 - (time.time() - time.monotonic())
 
 
 def shot(page: Page, name: str) -> Path:

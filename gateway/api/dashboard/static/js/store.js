@@ -5,6 +5,7 @@
 
 export const HISTORY_SECONDS = 60;
 const HISTORY_MAX = 2400; // points kept per axis (60 s at 40 updates/s)
+const HISTORY_SLACK = 240;
 const CONSOLE_MAX = 500;
 
 export const store = {
@@ -92,7 +93,9 @@ function setAxis(axis, time) {
   if (h.t.length && t <= h.t[h.t.length - 1]) return; // a repeat of a reading already drawn
   h.t.push(t);
   h.v.push(value);
-  if (h.t.length > HISTORY_MAX) {
+  // Trimmed in chunks: shifting 2,400 values at every one of 600 readings a second is work
+  // (and garbage) for nothing.
+  if (h.t.length > HISTORY_MAX + HISTORY_SLACK) {
     h.t.splice(0, h.t.length - HISTORY_MAX);
     h.v.splice(0, h.v.length - HISTORY_MAX);
   }

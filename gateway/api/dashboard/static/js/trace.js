@@ -73,6 +73,9 @@ export function TracePage({ loop }) {
     </div>
     ${error ? html`<p class="problem">${error}</p>` : null}
     <div class="trace" role="log">
+      ${lines.length === 0
+        ? html`<p class="muted">${trace?.enabled ? "Waiting for the line…" : "The trace is off: switch it on to record the line's frames."}</p>`
+        : null}
       ${lines.slice(-400).map(
         (l) => html`<div class="tl ${l.direction}"><span class="ts">${stamp(l.time)}</span><span class="dir">${l.direction}</span><span class="who">${l.controller || ""}</span><code>${l.text}</code><span class="note">${l.note}</span></div>`,
       )}
