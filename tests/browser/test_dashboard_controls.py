@@ -205,3 +205,30 @@ def test_switching_an_output_sends_d_bit_value_b(gateway: Gateway, session: Sess
     bit.click()
     gateway.line.wait_heard(mark, lambda h: "D30B" in h)
     expect(bit).to_have_attribute("aria-pressed", "false")
+
+
+def _set_control(gateway: Gateway, state: str) -> None:
+    request = urllib.request.Request(
+        gateway.url + "/api/v1/controllers/sim.3/control",
+        data=f'{{"state": "{state}"}}'.encode(),
+        headers={"Content-Type": "application/json"},
+        method="PUT",
+    )
+    with urllib.request.urlopen(request) as answer:
+        assert answer.status == 200
+
+
+def test_a_controller_in_local_control_says_so(gateway: Gateway, session: Session) -> None:
+    """An admin puts controller 3 in local (a technician at the machine): its card says LOCAL
+    and why, from the WebSocket, and the badge goes when it is remote again."""
+    page = session.page
+    _overview(gateway, page)
+    badge = page.get_by_test_id("local-sim.3")
+    expect(badge).to_have_count(0)
+    _set_control(gateway, "local")
+    try:
+        expect(badge).to_have_text("LOCAL")
+        assert "controller: anonymous" in (badge.locator(".badge").get_attribute("title") or "")
+    finally:
+        _set_control(gateway, "remote")
+    expect(badge).to_have_count(0)

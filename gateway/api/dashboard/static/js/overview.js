@@ -49,6 +49,13 @@ class ControllerHead extends Component {
   }
 }
 
+// Why a controller is in local control (motion and settings from the network refused; stop
+// never): the admin's setting of the controller or its loop, or its key switch.
+function localWhy(control) {
+  const why = (control.sources || []).map((s) => `${s.kind}: ${s.by}`);
+  return "local control: motion and settings refused, stop accepted" + (why.length ? ` (${why.join("; ")})` : "");
+}
+
 function ControllerHeadBody({ ctl }) {
   const online =
     store.ws.state !== "open" ? "unknown" : ctl.online == null ? "probing" : ctl.online ? "online" : "offline";
@@ -57,6 +64,9 @@ function ControllerHeadBody({ ctl }) {
       <a href="#/controller/${ctl.id}" class="ctlname">${ctl.name || ctl.id}</a>
       <span class="muted">${ctl.id}</span>
       <${Badge} kind=${online}>${online.toUpperCase()}<//>
+      ${ctl.control && ctl.control.state === "local"
+        ? html`<span data-testid="local-${ctl.id}"><${Badge} kind="local" title=${localWhy(ctl.control)}>LOCAL<//></span>`
+        : null}
     </div>
     <div class="ctlfacts">
       <span>mode ${ctl.mode == null ? "?" : `${ctl.mode} ${MODE[ctl.mode] || ""}`}</span>
