@@ -32,6 +32,7 @@ from typing import Any
 from gateway.bus.changes import ChangeLog, FellBehind, Subscription
 from gateway.bus.events import (
     BusEvent,
+    ControllerAnswering,
     FramingChanged,
     LinkDown,
     LinkUp,
@@ -235,6 +236,8 @@ class StateCache(ChangeLog):
             self.set_loop_stats(event.loop, event.time, counters=counters, queue_depth=queue_depth)
         elif isinstance(event, FramingChanged):
             self.set_framing(event.loop, event.body, event.framing, event.time)
+        elif isinstance(event, ControllerAnswering):
+            self.set_online(event.loop, event.body, event.online, event.time)
         elif isinstance(event, SelectionChanged) and event.motor is None:
             self._set_ctl(event.time, event.loop, event.body, selection_confirmed=False)
 
