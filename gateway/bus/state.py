@@ -238,13 +238,19 @@ class StateCache(ChangeLog):
             self.set_framing(event.loop, event.body, event.framing, event.time)
         elif isinstance(event, ControllerAnswering):
             self.set_online(event.loop, event.body, event.online, event.time)
-        elif isinstance(event, SelectionChanged) and event.motor is None:
-            self._set_ctl(event.time, event.loop, event.body, selection_confirmed=False)
+        elif isinstance(event, SelectionChanged):
+            # The scheduler's word: None, in doubt; a motor, read back or executed under ER1.
+            confirmed = {"selection_confirmed": event.motor is not None}
+            motor = {} if event.motor is None else {"selected_motor": event.motor}
+            self._set_ctl(event.time, event.loop, event.body, **confirmed, **motor)
 
     def set_link(self, loop: str, up: bool, now: float, cause: str | None = None) -> None:
         """The loop went up or down. Down: every controller's data is stale; up: nothing is
-        restored, the poller reads every controller again (issue 4)."""
+        restored, the poller reads every controller again. What was read from the line while
+        it came back (the scheduler's probes, ``97``: the selection) is current, and kept."""
         self._set_loop(now, loop, up=up, cause=None if up else cause)
+        if up:
+            return
         for name, body in [k for k in self._ctls if k[0] == loop]:
             # Nothing a silent loop said is current: not even that a motor moves (a moving
             # flag that outlived the line would answer requests as a busy controller).

@@ -13,7 +13,6 @@ from collections.abc import AsyncIterator, Callable
 import pytest
 
 from gateway.bus.config import LoopConfig
-from gateway.bus.events import BusEvent
 from gateway.bus.poller import PollConfig, Poller, attach
 from gateway.bus.requests import Priority
 from gateway.bus.scheduler import LoopScheduler
@@ -47,12 +46,7 @@ def _wire(
         publish=scheduler.events.publish,
     )
     scheduler.events.subscribe(poller.handle)
-
-    def feed(event: BusEvent) -> None:
-        state.handle(event, queue_depth=scheduler.queue_depth)
-
-    scheduler.events.subscribe(feed)  # last: every other subscriber hears the event first
-    scheduler.state_cache = state  # what the scheduler reads (``use_state`` without the order)
+    scheduler.use_state(state, first=False)  # last: the poller hears every event first
     return poller
 
 
