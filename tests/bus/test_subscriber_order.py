@@ -9,6 +9,7 @@ frames on the simulated line (its log, in simulated seconds) and the state the c
 from __future__ import annotations
 
 from collections.abc import AsyncIterator, Callable
+from itertools import pairwise
 
 import pytest
 
@@ -118,9 +119,12 @@ async def test_a_controller_off_and_back_in_either_order(
     await r.until(lambda: r.state.controller(LOOP, "2").online is False)
     assert r.state.axis(LOOP, "2", 1).stale and r.state.controller(LOOP, "1").online
     offline = r.sim.now()
-    await r.sim_time(offline + 3.0)
-    # Probed with backoff, not polled at the idle rate.
-    assert 2 <= len(r.frames(b"$2\r", since=offline)) <= 4
+    await r.sim_time(offline + 5.0)
+    # Probed with backoff (0.4, 0.8, 1.6, 2.0 s), not polled at the idle rate.
+    probes = [f.time for f in r.frames(b"$2\r", since=offline)]
+    gaps = [b - a for a, b in pairwise(probes)]
+    assert 2 <= len(probes) <= 5, probes
+    assert gaps == sorted(gaps) and gaps[0] >= 0.4, gaps
     on = r.sim.now()
     r.controls.power("2", True)
     await r.until(lambda: r.state.controller(LOOP, "2").online is True)
@@ -151,3 +155,24 @@ async def test_a_controller_that_answers_a_client_is_identified_at_once(
     assert r.frames(b"$2V\r", since=on)[0].time - on < 5.0
     # And polled at its idle rate again, not probed.
     await r.until(lambda: len(r.frames(b"$2\r", since=on)) >= 6, 10.0)
+
+
+@pytest.mark.parametrize("order", ORDERS)
+async def test_f_goes_out_only_when_the_selection_differs_in_either_order(
+    rig: Callable[..., Rig], order: str
+) -> None:
+    # The scheduler reads the selection it publishes back from the cache: fed last or first,
+    # it knows at once what it has just confirmed.
+    r = await rig(order, "1", idle_period=60.0, sensor_period=60.0, condition_period=60.0)
+    await r.identified("1")
+    mark = r.sim.now()
+    for text, motor in (("OH4000", 2), ("OL400", 2), ("OS200", 1), ("OH3000", 1)):
+        result = await r.scheduler.submit("1", parse(text), motor=motor)
+        assert result.ok, result
+    assert len(r.frames(b"$1F2\r", since=mark)) == 1
+    assert len(r.frames(b"$1F1\r", since=mark)) == 1
+    assert r.frames(b"$1F2\r", since=mark)[0].time < r.frames(b"$1OH4000\r")[0].time
+    assert r.frames(b"$1OL400\r")[0].time < r.frames(b"$1F1\r", since=mark)[0].time
+    ctl = r.state.controller(LOOP, "1")
+    assert (ctl.selected_motor, ctl.selection_confirmed) == (1, True)
+    assert r.scheduler.selected_motor("1") == 1
