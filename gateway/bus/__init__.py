@@ -9,6 +9,7 @@ from gateway.bus.config import LoopConfig
 from gateway.bus.counters import CountersSnapshot
 from gateway.bus.events import (
     BusEvent,
+    ControllerAnswering,
     EventBus,
     FramingChanged,
     LinkDown,
@@ -36,6 +37,7 @@ __all__ = [
     "BusError",
     "BusEvent",
     "CommandResult",
+    "ControllerAnswering",
     "CountersSnapshot",
     "DeadlineExpired",
     "Direction",

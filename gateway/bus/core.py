@@ -25,7 +25,8 @@ from gateway.bus.events import (
 from gateway.bus.framing_track import FramingTracker, hint_from_reply
 from gateway.bus.link import Link, LinkLost
 from gateway.bus.requests import ReplyKind
-from gateway.bus.selection import SelectionCache, confirm_command, selection_from_reply
+from gateway.bus.selection import after_accepted, confirm_command, selection_from_reply
+from gateway.bus.state import StateCache
 from gateway.bus.timing import Timing, reply_chars
 from gateway.errors import ReplyFormatError
 from gateway.protocol.framing import Framing, encode_command, framing_switch
@@ -97,7 +98,9 @@ class LoopCore:
         self.counters = counters
         self.bus = bus
         self.clock = clock
-        self.selection = SelectionCache()
+        #: the one home of what the controllers do (the selection among it): fed by the
+        #: scheduler's events before any other subscriber (``LoopLifecycle.use_state``)
+        self.state = StateCache()
         self.framing = FramingTracker(config.initial_framing)
         #: ``$B#*`` seen per controller (a counter, so a waiter cannot miss an early one)
         self.eeprom_done: dict[str, int] = {}
@@ -124,12 +127,18 @@ class LoopCore:
             return command.motor
         if command.spec.scope is Scope.PER_MOTOR and motor is not None:
             return motor
-        return self.selection.get(body)
+        return self.selected(body)
+
+    def selected(self, body: str) -> int | None:
+        """The motor selected on ``body`` as far as the scheduler can trust it: the state
+        cache's, once confirmed (read back, or ER1's word); None when not known."""
+        ctl = self.state.controller(self.name, body)
+        return ctl.selected_motor if ctl.selection_confirmed else None
 
     def set_selection(self, body: str, motor: int | None) -> None:
-        """Record the selection (None: forget it) and publish a change."""
-        forgot = motor is None and self.selection.forget(body)
-        if forgot or (motor is not None and self.selection.set(body, motor)):
+        """Publish what the scheduler learnt of the selection (None: not known any more);
+        the state cache records it."""
+        if motor != self.selected(body):
             self.bus.publish(
                 SelectionChanged(loop=self.name, time=self.clock(), body=body, motor=motor)
             )
@@ -295,7 +304,7 @@ class LoopCore:
             self.framing.forget(body)
             self.framing.suspect(body, "DL loaded the framing from EEPROM")
         elif command.form.selects_motor and command.key != "F{mt}":
-            changed = self.selection.after_accepted(body, command, framing)
+            changed = after_accepted(command, framing)
             if changed is not False:
                 self.set_selection(body, changed if isinstance(changed, int) else None)
 

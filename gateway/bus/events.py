@@ -25,6 +25,7 @@ from gateway.protocol.reply_parser import UnsolicitedKind
 
 __all__ = [
     "BusEvent",
+    "ControllerAnswering",
     "EventBus",
     "FramingChanged",
     "LinkDown",
@@ -119,6 +120,15 @@ class SelectionChanged(BusEvent):
 
     body: str
     motor: int | None
+
+
+@dataclass(frozen=True, kw_only=True)
+class ControllerAnswering(BusEvent):
+    """The poller found a controller silent (``online`` False: its polls went unanswered) or
+    answering again after that (True: back, its RAM settings reloaded from EEPROM, §16)."""
+
+    body: str
+    online: bool
 
 
 EventT = TypeVar("EventT")

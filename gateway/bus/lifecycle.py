@@ -110,8 +110,9 @@ class LoopLifecycle:
         #: set while no transaction is in flight (graceful shutdown waits on it)
         self._idle = asyncio.Event()
         self._idle.set()
-        #: the state cache the scheduler feeds first and reads (``use_state``)
-        self.state_cache: StateCache | None = None
+        #: the state cache the scheduler feeds first and reads: its own until ``use_state``
+        self.state_cache: StateCache = self._core.state
+        self._unfeed = self._feed(self.state_cache)
 
     def snapshot(self) -> CountersSnapshot:
         """The loop's counters now."""
@@ -141,22 +142,32 @@ class LoopLifecycle:
         self.transport.baud = baud
         self._link.lose(f"reopening the port at {baud} bps")
 
-    def use_state(self, state: StateCache) -> None:
-        """Feed ``state`` with every event before any other subscriber, and read from it
-        what the controllers do (the one home of that knowledge)."""
-        self.state_cache = state
-        self.events.subscribe(lambda e: state.handle(e, queue_depth=len(self._queue)), first=True)
+    def use_state(self, state: StateCache, *, first: bool = True) -> None:
+        """Feed ``state`` with every event and read from it what the controllers do (the one
+        home of that knowledge: the selection among it). Until then the scheduler keeps a
+        cache of its own; call this before ``start``.
+
+        ``first``: before every other subscriber, whenever they subscribe. No answer may
+        depend on it (the tests feed the cache last to show that none does).
+        """
+        self._unfeed()
+        self.state_cache = self._core.state = state
+        self._unfeed = self._feed(state, first=first)
+
+    def _feed(self, state: StateCache, *, first: bool = True) -> Callable[[], None]:
+        return self.events.subscribe(
+            lambda e: state.handle(e, queue_depth=len(self._queue)), first=first
+        )
 
     def _must_wait(self, request: Request) -> bool:
         """A per-motor request whose F would be refused now: a motor of its controller moves
         (§10 F, 動作中 ×) and another motor, or an unknown one, is selected. It waits (its
         deadline bounds that); the status polls tell when the motion has ended."""
-        state = self.state_cache
-        if state is None or request.motor is None:
+        if request.motor is None:
             return False
-        if not state.controller(self.name, request.body).moving:
+        if not self.state_cache.controller(self.name, request.body).moving:
             return False
-        if self._core.selection.get(request.body) == request.motor:
+        if self._core.selected(request.body) == request.motor:
             return False
         return any(needs_selection(c) for c in request.commands)
 
@@ -214,7 +225,7 @@ class LoopLifecycle:
                 self._retry_at = self.clock() + self._backoff
             return False
         self._link.start()
-        self._core.selection.forget()
+        self._forget_all()
         self._core.framing.forget()
         self._core.detect_failed.clear()
         self._core.deaf_until.clear()

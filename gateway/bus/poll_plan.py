@@ -18,6 +18,9 @@ identify   ``""`` ``V`` ``94`` ``SUM``,           first contact, back online, li
 probe      ``""``                                 offline: backoff ``probe_initial`` .. ``_max``
 ========== ====================================== ===============================================
 
+What the controller does (moving, answering) is never kept here: the poller reads it from the
+state cache, the one home of that knowledge, and hands it to ``schedule``.
+
 Of the jobs that are due the most urgent runs first (the order of ``Job``; an idle status read
 ranks with the moving ones), then the one due longest. Periods are device seconds; due times
 are host seconds on the scheduler's clock (its ``time_scale`` maps one to the other for the
@@ -68,10 +71,8 @@ class BodyPlan:
 
     body: str
     due: dict[Job, float] = field(default_factory=dict)
-    misses: int = 0
-    online: bool | None = None
+    misses: int = 0  # polls in a row nobody answered
     probe_delay: float = 0.0
-    moving: bool = False  # as the poller's last status read saw it
     moving_polls: int = 0  # polls of a moving controller: every other one reads the status
     ran_due: float = 0.0  # the due time of the job running (or run last)
     deferred: list[str] = field(default_factory=list)  # reads refused while moving, to do
@@ -93,13 +94,13 @@ class PollPlan:
         """Read every controller again from the device (start, link up: issue 4)."""
         for plan in self.bodies.values():
             plan.due = {Job.IDENTIFY: 0.0}
-            plan.misses, plan.online, plan.moving, plan.deferred = 0, None, False, []
+            plan.misses, plan.deferred = 0, []
 
-    def poll_now(self, body: str) -> bool:
+    def poll_now(self, body: str, online: bool | None) -> bool:
         """Make ``body``'s status read due before anything else; False if it is not polled
-        (unknown or offline)."""
+        (unknown, or ``online`` False: offline, probed)."""
         plan = self.bodies.get(body)
-        if plan is not None and plan.online is not False:
+        if plan is not None and online is not False:
             plan.due.pop(Job.STATUS, None)
             plan.due[Job.STATUS_MOVING] = -1.0  # before anything else that is due
             return True
@@ -132,16 +133,29 @@ class PollPlan:
             return now + step
         return due + step if due + step >= now - step else now
 
-    def schedule(self, plan: BodyPlan, job: Job, now: float) -> None:
-        """Set the next due time of ``job`` (and start the periodic jobs of a new contact)."""
+    def schedule(
+        self,
+        plan: BodyPlan,
+        job: Job,
+        now: float,
+        *,
+        online: bool | None,
+        moving: bool,
+        identified: bool = False,
+    ) -> None:
+        """Set the next due time of ``job`` (and start the periodic jobs of a new contact).
+
+        ``online`` and ``moving``: the controller as the state cache knows it now;
+        ``identified``: an identify job was answered.
+        """
         c = self.config
-        if plan.online is False:
+        if online is False:
             if job is Job.PROBE:
                 plan.probe_delay = min(c.probe_max, max(c.probe_initial, plan.probe_delay * 2))
                 plan.due[Job.PROBE] = now + self.host(plan.probe_delay)
             return
         if job is Job.IDENTIFY:
-            if plan.online:  # identified: start the periodic jobs
+            if identified:  # start the periodic jobs
                 plan.due.update({Job.STATUS: now, Job.SENSORS: now, Job.CONDITIONS: now})
                 plan.due[Job.POSITIONS] = now + self.host(c.position_period)
             else:
@@ -155,8 +169,8 @@ class PollPlan:
         if job in (Job.STATUS, Job.STATUS_MOVING, Job.PROBE):
             plan.due.pop(Job.STATUS, None)
             plan.due.pop(Job.STATUS_MOVING, None)
-            nxt = Job.STATUS_MOVING if plan.moving else Job.STATUS
-            period = c.moving_period if plan.moving else c.idle_period
+            nxt = Job.STATUS_MOVING if moving else Job.STATUS
+            period = c.moving_period if moving else c.idle_period
             # The rate carries on only within one kind; a move starting or ending restarts it.
             due = plan.ran_due if nxt is job else -1.0
             plan.due[nxt] = self.next_due(due, period, now)

@@ -5,6 +5,13 @@ the poller reads is latched exactly like what anyone else reads (DESIGN invarian
 per controller, is a set of jobs with due times (``gateway.bus.poll_plan``: the jobs, their
 commands and periods); here they run.
 
+Whether a controller moves or answers is read from the state cache, the one home of that
+knowledge; what the poller learns itself (a controller silent, or back) it publishes as a
+``ControllerAnswering`` event. It reacts to what the cache learns through the cache's own
+changes (a motion ended: its final position; a controller answering again), and to the bus
+events only by noting work for its own task, which reads the cache when it runs: whether the
+cache or the poller hears an event first never changes what the poller does.
+
 The poller has one transaction in flight at a time; of the jobs that are due it runs the most
 urgent (the order of ``Job``), then the one due longest. A moving axis therefore gets its
 ``""`` + ``6{mt}`` every ``moving_period`` however many idle controllers share the line, and
@@ -20,14 +27,14 @@ import logging
 from collections.abc import Callable, Iterable, Sequence
 from typing import Protocol
 
-from gateway.bus.events import BusEvent, LinkDown, LinkUp, ReplyObserved
+from gateway.bus.events import BusEvent, ControllerAnswering, LinkDown, LinkUp, ReplyObserved
 from gateway.bus.poll_plan import BodyPlan, Job, PollConfig, PollPlan
 from gateway.bus.requests import BusError, LoopDown, Priority, ReplyKind, TransactionResult
 from gateway.bus.scheduler import LoopScheduler
-from gateway.bus.state import StateCache
+from gateway.bus.state import Change, StateCache
 from gateway.protocol.models import Command
 from gateway.protocol.registry import parse
-from gateway.protocol.reply_values import StatusFlags, Version
+from gateway.protocol.reply_values import Version
 from gateway.protocol.spec import Effect
 
 __all__ = ["Job", "PollConfig", "Poller", "Submitter", "attach"]
@@ -78,9 +85,13 @@ class Poller:
         config: PollConfig | None = None,
         time_scale: float = 1.0,
         clock: Callable[[], float] | None = None,
+        publish: Callable[[BusEvent], None] | None = None,
     ) -> None:
         self._scheduler = scheduler
         self._state = state
+        #: where what the poller learns goes (the scheduler's event bus; the cache alone
+        #: when there is none)
+        self._publish = publish or state.handle
         self.loop = loop
         self._plan = PollPlan(bodies, config or PollConfig(), time_scale)
         self._clock = clock
@@ -90,9 +101,15 @@ class Poller:
         self._task: asyncio.Task[None] | None = None
         self._ups = 0  # LinkUp events seen
         self._fragile: tuple[str, asyncio.Future[TransactionResult]] | None = None
+        #: controllers whose status read is to be made due at once (a move started, a stop
+        #: was sent), and those heard again after the poller found them silent: done by the
+        #: poller's task, after every subscriber has taken the event
+        self._poll_soon: set[str] = set()
+        self._back: set[str] = set()
         #: polls made, per job (diagnostics)
         self.counts: dict[Job, int] = dict.fromkeys(Job, 0)
         self._plan.restart()
+        state.listen(self._on_change)
 
     # ------------------------------------------------------------------ control
 
@@ -124,22 +141,26 @@ class Poller:
 
     def poll_now(self, body: str) -> None:
         """Read ``body``'s status at once (a move started or a stop was sent)."""
-        if self._plan.poll_now(body):
+        if body in self._plan.bodies:
+            self._poll_soon.add(body)
             self._wake.set()
 
+    def _online(self, body: str) -> bool | None:
+        return self._state.controller(self.loop, body).online
+
+    def _moving(self, body: str) -> bool:
+        return self._state.controller(self.loop, body).moving
+
     def handle(self, event: BusEvent) -> None:
-        """Take one scheduler event (subscribe this to its ``EventBus``)."""
+        """Take one scheduler event (subscribe this to its ``EventBus``, in any order)."""
         if isinstance(event, ReplyObserved):
             effect = event.command.form.effect
             accepted = event.value is None and not event.rejected
             if accepted and effect in (Effect.MOTION, Effect.STOP):
                 self.poll_now(event.body)
-            if accepted and effect is Effect.MOTION:
-                plan = self._plan.bodies.get(event.body)
-                if plan is not None:
-                    plan.moving = True  # until a status read says otherwise
-                if self._fragile is not None and self._fragile[0] == event.body:
-                    self._fragile[1].cancel()  # it would be refused: a command error
+            fragile = self._fragile
+            if accepted and effect is Effect.MOTION and fragile and fragile[0] == event.body:
+                fragile[1].cancel()  # it would be refused: a command error
         elif isinstance(event, LinkUp):
             self._ups += 1
             self._plan.restart()
@@ -148,11 +169,36 @@ class Poller:
         elif isinstance(event, LinkDown):
             self._link_up.clear()
 
+    def _on_change(self, change: Change) -> None:
+        """What the cache has just learnt of one of this loop's controllers."""
+        if change.loop != self.loop or change.body is None or change.motor is not None:
+            return
+        plan = self._plan.bodies.get(change.body)
+        if plan is None:
+            return
+        if change.values.get("moving") is False and self._online(change.body):
+            plan.due[Job.SETTLE] = self.now()  # the move has ended: its final position now
+            self._wake.set()
+        if change.values.get("online") is True and Job.PROBE in plan.due:
+            # Found silent, and answering again (to anyone): identify it before anything else.
+            self._back.add(change.body)
+            self._wake.set()
+
+    def _take_notes(self) -> None:
+        """Do what the events asked for, now that every subscriber has taken them."""
+        for body in sorted(self._back):
+            self._came_back(self._plan.bodies[body])
+        self._back.clear()
+        for body in sorted(self._poll_soon):
+            self._plan.poll_now(body, self._online(body))
+        self._poll_soon.clear()
+
     # ------------------------------------------------------------------ the jobs
 
     async def _run(self) -> None:
         while True:
             await self._link_up.wait()
+            self._take_notes()
             now = self.now()
             picked = self._plan.pick(now)
             if isinstance(picked, float):
@@ -172,19 +218,27 @@ class Poller:
                 plan.due.setdefault(job, 0.0)
             except BusError as exc:  # a deadline passed, a refusal: try again next period
                 log.info("loop %s: poll %s of %s failed: %s", self.loop, job.name, plan.body, exc)
-                self._plan.schedule(plan, job, self.now())
+                self._schedule(plan, job)
             except Exception:  # a bug must not stop the polling of the whole loop
                 log.exception("loop %s: poll %s of %s failed", self.loop, job.name, plan.body)
-                self._plan.schedule(plan, job, self.now())
+                self._schedule(plan, job)
             self._state.refresh(self.now())
+
+    def _schedule(self, plan: BodyPlan, job: Job, *, identified: bool = False) -> None:
+        """The next due time of ``job``, from what the cache knows of the controller now."""
+        ctl = self._state.controller(self.loop, plan.body)
+        self._plan.schedule(
+            plan, job, self.now(), online=ctl.online, moving=ctl.moving, identified=identified
+        )
 
     async def _run_job(self, plan: BodyPlan, job: Job) -> None:
         self.counts[job] += 1
         ctl = self._state.controller(self.loop, plan.body)
         motor = ctl.selected_motor or ctl.last_moved or 1
+        identified = False
         if job is Job.IDENTIFY:
-            await self._identify(plan)
-        elif job is Job.STATUS_MOVING and plan.moving and plan.moving_polls % 2:
+            identified = await self._identify(plan, ctl.online)
+        elif job is Job.STATUS_MOVING and ctl.moving and plan.moving_polls % 2:
             # The position every moving period, the status every other one (100 ms: EMS and
             # limits within one status poll), so that one moving axis among 15 controllers
             # still gets its 15 position reads a second on a 9600 bps line.
@@ -194,43 +248,48 @@ class Poller:
             # While a motor moves it is the selected one (F is refused, §10 F): an unconfirmed
             # selection is read back with 97 in the same transaction.
             confirm = [] if ctl.selection_confirmed else ["97"]
-            moving = [*confirm, f"6{motor}"] if plan.moving and job is not Job.PROBE else []
+            moving = [*confirm, f"6{motor}"] if ctl.moving and job is not Job.PROBE else []
             plan.moving_polls = 1 if moving else 0
-            if await self._poll(plan, "", *moving) and not plan.moving and plan.deferred:
+            answered = await self._poll(plan, "", *moving, was=ctl.online)
+            if answered and not self._moving(plan.body) and plan.deferred:
                 await self._poll(plan, *plan.deferred)
         elif job is Job.SETTLE:  # the move has ended: its final position and sensors
             moved = ctl.last_moved or motor
             if await self._poll(plan, f"6{moved}", f"CLM{moved}") and plan.deferred:
                 await self._poll(plan, *plan.deferred)
         elif job is Job.SENSORS:  # CLM is refused while moving (§10 CL); CL reads the moving one
-            await (self._poll(plan, "CL") if plan.moving else self._poll(plan, "CLM1", "CLM2"))
+            await (self._poll(plan, "CL") if ctl.moving else self._poll(plan, "CLM1", "CLM2"))
         elif job is Job.CONDITIONS:
             await self._poll(plan, "90", "96", "GSS")
         elif job is Job.POSITIONS:
             await self._poll(plan, "61", "62")
-        self._plan.schedule(plan, job, self.now())
+        self._schedule(plan, job, identified=identified)
 
-    async def _identify(self, plan: BodyPlan) -> None:
+    async def _identify(self, plan: BodyPlan, was: bool | None) -> bool:
         """Version, mode, framing and positions, read from the device (never from cache).
 
         The mode is read with ``94`` (§10 9 form II: clears nothing, allowed while moving)
         rather than ``E``, which like ``EE``/``EL``/``ER`` is refused while a motor moves
         (動作中 ×) and would raise the command error the gateway then reports; those framing
-        reads wait until the controller is seen stopped.
+        reads wait until the controller is seen stopped. True when the controller answered.
         """
-        result = await self._poll(plan, "", "V", "94", "SUM")
+        result = await self._poll(plan, "", "V", "94", "SUM", was=was)
         if result is None:
-            return
+            return False
         version = result.results[1].value
         framing = ["EE", "EL"]
         if isinstance(version, Version) and version.has_error_display:  # ER: ROM 1.19+
             framing.append("ER")
         plan.deferred = framing
-        if await self._poll(plan, "97", "61", "62") and not plan.moving:
+        if await self._poll(plan, "97", "61", "62") and not self._moving(plan.body):
             await self._poll(plan, *plan.deferred)
+        return True
 
-    async def _poll(self, plan: BodyPlan, *texts: str) -> TransactionResult | None:
+    async def _poll(
+        self, plan: BodyPlan, *texts: str, was: bool | None = True
+    ) -> TransactionResult | None:
         """One poll transaction; None when nobody answered or a move started meanwhile.
+        ``was``: whether the cache had the controller online before (False: found silent).
 
         A poll with a command that is refused while moving is withdrawn from the queue when
         a motion command for the controller is accepted before it goes out (``handle``).
@@ -250,17 +309,15 @@ class Poller:
             return None
         finally:
             self._fragile = None
-        if not self._answered(plan, result):
+        if not self._answered(plan, result, was):
             return None
-        if texts[0] == "":
-            self._status(plan, result)
         done = {c.key for c, r in zip(commands, result.results, strict=True) if r.value is not None}
         if fragile and {_command(t).key for t in plan.deferred} <= done:
             plan.deferred = []
         return result
 
-    def _answered(self, plan: BodyPlan, result: TransactionResult) -> bool:
-        """Count a poll nobody answered; mark the controller offline or online."""
+    def _answered(self, plan: BodyPlan, result: TransactionResult, was: bool | None) -> bool:
+        """Count a poll nobody answered; publish the controller silent, or back."""
         # A lost status reply is followed by a read of the other error store: if that one
         # was answered, the controller answers (one reply lost on the line is not "off").
         silent = all(
@@ -270,29 +327,31 @@ class Poller:
         now = self.now()
         if silent:
             plan.misses += 1
-            if plan.misses >= self.config.offline_after and plan.online is not False:
-                plan.online, plan.moving = False, False
+            if plan.misses >= self.config.offline_after and self._online(plan.body) is not False:
                 plan.probe_delay = self.config.probe_initial
                 plan.due = {Job.PROBE: now + self._plan.host(plan.probe_delay)}
-                self._state.set_online(self.loop, plan.body, False, now)
+                # The cache takes it as not moving any more (nothing it said is current).
+                self._publish(
+                    ControllerAnswering(loop=self.loop, time=now, body=plan.body, online=False)
+                )
             return False
         plan.misses = 0
-        if plan.online is False:  # back: identify it again before anything else
-            # A controller that was off came back with RAM lost: its selection is F1 and its
-            # framing whatever DW stored (§16, §10 DL). Forget what the scheduler assumed.
-            self._scheduler.forget(plan.body)
-            plan.due = {Job.IDENTIFY: now}
-            self._state.set_online(self.loop, plan.body, True, now)
-        plan.online = True
+        if was is False:
+            self._back.discard(plan.body)
+            self._came_back(plan)
         return True
 
-    def _status(self, plan: BodyPlan, result: TransactionResult) -> None:
-        flags = result.results[0].value
-        if not isinstance(flags, StatusFlags):
-            return
-        if plan.moving and not flags.moving:  # the move ended: its final position now
-            plan.due[Job.SETTLE] = self.now()
-        plan.moving = flags.moving
+    def _came_back(self, plan: BodyPlan) -> None:
+        """A controller found silent answers again: identify it before anything else.
+
+        A controller that was off came back with RAM lost: its selection is F1 and its
+        framing whatever DW stored (§16, §10 DL). Forget what the scheduler assumed.
+        """
+        now = self.now()
+        plan.misses = 0
+        self._scheduler.forget(plan.body)
+        plan.due = {Job.IDENTIFY: now}
+        self._publish(ControllerAnswering(loop=self.loop, time=now, body=plan.body, online=True))
 
 
 def attach(
@@ -311,6 +370,7 @@ def attach(
         config=config,
         time_scale=scheduler.config.time_scale,
         clock=scheduler.clock,
+        publish=scheduler.events.publish,
     )
     # The state first, whoever subscribes when: the poller (and every other subscriber) reads
     # what the event has just taught it.

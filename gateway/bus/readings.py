@@ -110,7 +110,10 @@ class _Reading:
             # Moving from the '>' on, until a status read says otherwise: a per-motor command
             # for the other motor must wait, its F would be refused (§10 F).
             moved = self.motor(ctl)
-            self.ctl(selected_motor=moved, last_moved=moved, selection_confirmed=False, moving=True)
+            confirmed = ctl.selection_confirmed and moved == ctl.selected_motor
+            self.ctl(
+                selected_motor=moved, last_moved=moved, selection_confirmed=confirmed, moving=True
+            )
         elif key[:-1] in ("EE", "EL", "ER", "SUM") and key[-1:] in "01":
             self.framing(key[:-1], key[-1] == "1")
         elif key in ("EP0", "EP1"):

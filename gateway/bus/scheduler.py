@@ -109,7 +109,7 @@ class LoopScheduler(LoopLifecycle):
 
     def selected_motor(self, body: str) -> int | None:
         """The motor the scheduler believes selected on ``body`` (None: not known)."""
-        return self._core.selection.get(body)
+        return self._core.selected(body)
 
     def framing(self, body: str) -> Framing:
         """The framing the scheduler uses for ``body``."""

@@ -1,20 +1,22 @@
-"""Motor selection (§9-1, §10 F): which motor each controller acts on, as the scheduler knows it.
+"""Motor selection (§9-1, §10 F): how the scheduler learns which motor each controller acts on.
 
 A controller drives two motors; commands without a motor suffix, and every per-motor setting,
 act on the motor ``F`` selected. The scheduler owns the selection (DESIGN invariant 5): a
 per-motor command for motor m goes inside its transaction with ``F{m}`` first whenever the
-cached selection is not m, and the cache is dropped after any doubt (time-out, garbled reply,
-'?', reconnect), so that F is sent again rather than trusted.
+known selection is not m, and the selection is dropped after any doubt (time-out, garbled
+reply, '?', reconnect), so that F is sent again rather than trusted.
 
-What the cache learns from:
+The selection has one home, the state cache (``ControllerState.selected_motor``, trusted by
+the scheduler only while ``selection_confirmed``): the scheduler publishes what it learns as
+``SelectionChanged`` and reads it back from there (``LoopCore.selected``). It learns from:
 * ``F{m}`` answered '>' and, unless ER1 would have said '>@', confirmed with ``97`` (bit 7 of
   the condition flags: the selected motor, §10 9; it clears nothing). F is refused while a
   motor moves (§10 F, 動作中 ×) with the same bare '>': without the confirmation a motor-2
   setting would land on motor 1.
 * a motion command with a suffix (``4{mt}`` ...): selects that motor when it is executed
   (§9-1, §10 F), but a refused one (moving, EMS) keeps the old selection with the same '>'
-  (docs/manual-notes.md "Order of the checks"). So the cache takes the suffix only with ER1,
-  where '>' means executed; otherwise it forgets.
+  (docs/manual-notes.md "Order of the checks"). So the suffix is trusted only with ER1,
+  where '>' means executed; otherwise the selection is forgotten (``after_accepted``).
 * replies that show the selection: ``9`` (bit 7), ``97``, ``F``.
 
 Stops need no F: the selected motor is the moving one (F is refused while moving, and a suffix
@@ -35,7 +37,7 @@ from gateway.protocol.reply_values import ConditionFlags
 from gateway.protocol.spec import Scope
 
 __all__ = [
-    "SelectionCache",
+    "after_accepted",
     "confirm_command",
     "needs_selection",
     "select_command",
@@ -80,42 +82,16 @@ def selection_from_reply(command: Command, value: ReplyValue | None) -> int | No
     return None
 
 
-class SelectionCache:
-    """The selected motor per controller, or nothing when in doubt."""
+def after_accepted(command: Command, framing: Framing) -> int | bool | None:
+    """What a command answered '>' (not '>@') tells of the selection.
 
-    def __init__(self) -> None:
-        self._selected: dict[str, int] = {}
-
-    def get(self, body: str) -> int | None:
-        """The motor believed selected, None when not known."""
-        return self._selected.get(body)
-
-    def set(self, body: str, motor: int) -> bool:
-        """Remember ``motor``; True when that changed the cache."""
-        changed = self._selected.get(body) != motor
-        self._selected[body] = motor
-        return changed
-
-    def forget(self, body: str | None = None) -> bool:
-        """Drop the cache of ``body`` (None: every controller); True when something was known."""
-        if body is None:
-            known = bool(self._selected)
-            self._selected.clear()
-            return known
-        return self._selected.pop(body, None) is not None
-
-    def after_accepted(self, body: str, command: Command, framing: Framing) -> int | bool | None:
-        """Update for a command answered '>' (not '>@'); returns what changed.
-
-        Returns the newly selected motor, None when the cache was dropped, False when the
-        command says nothing about the selection.
-        """
-        if not command.form.selects_motor:
-            return False
-        motor = command.motor
-        # F is confirmed by the caller (97) unless ER1; a suffix is executed under ER1.
-        if (command.key == "F{mt}" or framing.error_mark) and motor is not None:
-            self.set(body, motor)
-            return motor
-        self.forget(body)
-        return None
+    The newly selected motor, None when the selection is not known any more, False when the
+    command says nothing about the selection.
+    """
+    if not command.form.selects_motor:
+        return False
+    motor = command.motor
+    # F is confirmed by the caller (97) unless ER1; a suffix is executed under ER1.
+    if (command.key == "F{mt}" or framing.error_mark) and motor is not None:
+        return motor
+    return None

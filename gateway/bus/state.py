@@ -24,7 +24,8 @@ in ``changes`` (``ChangeLog``), what one reply tells in ``readings``, the latch 
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Iterable, Mapping
+import logging
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import replace
 from types import MappingProxyType
 from typing import Any
@@ -32,6 +33,7 @@ from typing import Any
 from gateway.bus.changes import ChangeLog, FellBehind, Subscription
 from gateway.bus.events import (
     BusEvent,
+    ControllerAnswering,
     FramingChanged,
     LinkDown,
     LinkUp,
@@ -70,6 +72,8 @@ __all__ = [
     "Subscription",
 ]
 
+log = logging.getLogger("gateway.bus")
+
 
 class StateCache(ChangeLog):
     """The latched state of every loop; fed with replies, read by snapshot, change or stream."""
@@ -85,6 +89,7 @@ class StateCache(ChangeLog):
         #: controller holds them in both stores, §10 9 ③: ``readings``)
         self.status_since_condition: dict[tuple[str, str], frozenset[ErrorKind]] = {}
         self.counters_period = 1.0
+        self._followers: list[Callable[[BusEvent], None]] = []
 
     # ------------------------------------------------------------------ reading
     # (seq, changes_since, subscribe and listen: see ChangeLog)
@@ -213,9 +218,27 @@ class StateCache(ChangeLog):
         command without a suffix acted on."""
         apply_reply(self, loop, body, command, value, time, motor=motor, rejected=rejected)
 
+    def follow(self, callback: Callable[[BusEvent], None]) -> Callable[[], None]:
+        """Call ``callback(event)`` with every scheduler event the cache takes, right after
+        it has learnt from it; returns the unsubscribe. A subscriber that reads the cache
+        while it handles an event follows here: it reads what that event taught, whatever
+        order the scheduler's subscribers were added in."""
+        self._followers.append(callback)
+        return lambda: self._followers.remove(callback) if callback in self._followers else None
+
     def handle(self, event: BusEvent, *, queue_depth: int | None = None) -> None:
-        """Take one event of the loop scheduler (subscribe this to its ``EventBus``);
-        ``queue_depth``: the scheduler's, if the subscriber knows it."""
+        """Take one event of the loop scheduler (subscribe this to its ``EventBus``), then
+        hand it to the followers; ``queue_depth``: the scheduler's, if the subscriber knows it."""
+        try:
+            self._learn(event, queue_depth)
+        finally:
+            for callback in list(self._followers):
+                try:
+                    callback(event)
+                except Exception:  # one bad follower must not stop the others
+                    log.exception("state follower %r failed on %r", callback, event)
+
+    def _learn(self, event: BusEvent, queue_depth: int | None) -> None:
         if isinstance(event, ReplyObserved):
             self.observe(
                 event.loop,
@@ -235,13 +258,21 @@ class StateCache(ChangeLog):
             self.set_loop_stats(event.loop, event.time, counters=counters, queue_depth=queue_depth)
         elif isinstance(event, FramingChanged):
             self.set_framing(event.loop, event.body, event.framing, event.time)
-        elif isinstance(event, SelectionChanged) and event.motor is None:
-            self._set_ctl(event.time, event.loop, event.body, selection_confirmed=False)
+        elif isinstance(event, ControllerAnswering):
+            self.set_online(event.loop, event.body, event.online, event.time)
+        elif isinstance(event, SelectionChanged):
+            # The scheduler's word: None, in doubt; a motor, read back or executed under ER1.
+            confirmed = {"selection_confirmed": event.motor is not None}
+            motor = {} if event.motor is None else {"selected_motor": event.motor}
+            self._set_ctl(event.time, event.loop, event.body, **confirmed, **motor)
 
     def set_link(self, loop: str, up: bool, now: float, cause: str | None = None) -> None:
         """The loop went up or down. Down: every controller's data is stale; up: nothing is
-        restored, the poller reads every controller again (issue 4)."""
+        restored, the poller reads every controller again. What was read from the line while
+        it came back (the scheduler's probes, ``97``: the selection) is current, and kept."""
         self._set_loop(now, loop, up=up, cause=None if up else cause)
+        if up:
+            return
         for name, body in [k for k in self._ctls if k[0] == loop]:
             # Nothing a silent loop said is current: not even that a motor moves (a moving
             # flag that outlived the line would answer requests as a busy controller).

@@ -97,7 +97,8 @@ class ControllerState:
     moving: bool = False  # "" bit 0
     selected_motor: int | None = None
     #: False while the selection is only inferred from a '>' (which does not mean the command
-    #: was valid, §9-2); True once read back with 9, 97 or F
+    #: was valid, §9-2) or in doubt; True once read back with 9, 97 or F, or taken on ER1's
+    #: word (the scheduler's ``SelectionChanged``). The scheduler trusts only a confirmed one.
     selection_confirmed: bool = False
     last_moved: int | None = None  # the motor of the latest move the gateway knows of
     #: position management: True signed (EP1), False unsigned (EP0), None not read since the

@@ -97,7 +97,7 @@ class TransactionRunner:
     def _axis(self, command: Command) -> int | None:
         if command.motor is not None:
             return command.motor
-        return self.motor if self.motor is not None else self.core.selection.get(self.body)
+        return self.motor if self.motor is not None else self.core.selected(self.body)
 
     async def _send_retrying(self, command: Command, motor: int | None) -> Sent:
         """Send with the retries the form allows: '?' always, a lost reply if resendable."""
@@ -137,14 +137,14 @@ class TransactionRunner:
             return True
         core.set_selection(self.body, None)
         await self._query(confirm_command())  # the reply sets the selection it shows
-        return core.selection.get(self.body) == motor
+        return core.selected(self.body) == motor
 
     async def _selected(self, command: Command) -> bool:
         """The motor ``command`` needs is selected (F sent first when the cache differs)."""
         motor = self.motor
         if motor is None or not needs_selection(command):
             return True
-        return self.core.selection.get(self.body) == motor or await self._select(motor)
+        return self.core.selected(self.body) == motor or await self._select(motor)
 
     async def _select(self, motor: int) -> bool:
         """Send F{motor} and confirm it."""

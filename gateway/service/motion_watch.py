@@ -10,7 +10,10 @@ position read (``6{mt}``: the poller reads it in the same transaction as the ``"
 the end), or a read of our own when none comes.
 
 Watching the events rather than state changes: the cache publishes a field only when it moves,
-so a move too short for any read to see it moving would change nothing there.
+so a move too short for any read to see it moving would change nothing there. The events come
+through the state cache (``StateCache.follow``), once it has learnt from them: whether the
+controller moves is the cache's word (``ControllerState.moving``), never a record of its own;
+the operation keeps only its own state (``moving`` once a read after its send saw the motion).
 """
 
 from __future__ import annotations
@@ -79,9 +82,9 @@ class MotionWatch:
         self._unknown: dict[tuple[str, str], _ReadBack] = {}
         self._tasks: set[asyncio.Task[Any]] = set()
         self._unsubscribe = [
-            scheduler.events.subscribe(self._on_bus) for scheduler in gateway.schedulers.values()
+            gateway.state.follow(self._on_bus),
+            gateway.state.listen(self._on_change),
         ]
-        self._unsubscribe.append(gateway.state.listen(self._on_change))
 
     def close(self) -> None:
         """Stop listening; abandon the final reads under way."""
@@ -116,15 +119,16 @@ class MotionWatch:
                     op.ending.set_result(event.value)
 
     def _status(self, op: Operation, flags: StatusFlags) -> None:
+        """A status read after ``op``'s send (the cache has just learnt it)."""
         if flags.limit_error:
             op.errors.add("limit_error")
         if flags.emergency_stop:
             op.errors.add("emergency_stop")
-        if flags.command_error and not op.seen_moving:
+        seen_moving = op.state is OperationState.MOVING
+        if flags.command_error and not seen_moving:
             op.errors.add("command_error")
-        if flags.moving:
-            op.seen_moving = True
-            if op.state is OperationState.SENT:
+        if self.gateway.state.controller(op.axis.loop, op.axis.body).moving:
+            if not seen_moving:  # queued still, when the read came before the send returned
                 self._set(op, OperationState.MOVING)
         elif op.ending is None:
             op.ending = asyncio.get_running_loop().create_future()

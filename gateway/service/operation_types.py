@@ -149,7 +149,6 @@ class Operation:
     updated: float = field(default_factory=time.time)
     # tracking
     armed: bool = False  # the transaction is done: status reads from now on are the motion's
-    seen_moving: bool = False
     stop_requested: bool = False
     errors: set[str] = field(default_factory=set)
     ending: asyncio.Future[int] | None = None

@@ -181,8 +181,9 @@ class Operations:
                 op.position_before = before
         outcome = result.outcome
         if outcome is Outcome.DONE:
-            if op.state is OperationState.QUEUED:
+            if op.sent is None:
                 op.sent = time.time()
+            if op.state is OperationState.QUEUED:
                 self._set(op, OperationState.SENT)
             return
         first = next(r for r in result.results if r.outcome is not Outcome.DONE)

@@ -147,8 +147,12 @@ async def running_app(
     eeprom_dir: Path | None = None,
     audit_log: Path | None = None,
     config: GatewayConfig | None = None,
+    cache_last: bool = False,
 ) -> AsyncIterator[Api]:
-    """The app on a simulated loop, started and identified; closed after the block."""
+    """The app on a simulated loop, started and identified; closed after the block.
+
+    ``cache_last``: the state cache hears each scheduler event after every other subscriber
+    rather than first (no answer may depend on the order)."""
     sim = build_loop(list(bodies), clock=SimClock(scale), eeprom_dir=eeprom_dir)
     config = config or simulated_config(bodies)
     if audit_log is not None:
@@ -163,6 +167,9 @@ async def running_app(
         app = create_app(gateway, auth=AuthConfig(book))
     else:
         app = create_app(gateway, auth=AuthConfig(no_auth=True))
+    if cache_last:
+        for scheduler in gateway.schedulers.values():
+            scheduler.use_state(gateway.state, first=False)
     events: list[ServiceEvent] = []
     gateway.events.subscribe(events.append)
     try:

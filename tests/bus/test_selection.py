@@ -9,9 +9,12 @@ from __future__ import annotations
 import asyncio
 import random
 
+import pytest
+
 from gateway.bus.events import SelectionChanged, TransactionDone
-from gateway.bus.requests import Outcome, ReplyKind
-from gateway.bus.selection import SelectionCache, needs_selection, selection_from_reply
+from gateway.bus.requests import DeadlineExpired, Outcome, ReplyKind
+from gateway.bus.selection import after_accepted, needs_selection, selection_from_reply
+from gateway.bus.state import StateCache
 from gateway.protocol.framing import Framing
 from gateway.protocol.registry import parse
 from gateway.protocol.reply_values import ConditionFlags
@@ -39,14 +42,10 @@ def test_what_replies_tell_of_the_selection() -> None:
 
 
 def test_a_motion_suffix_selects_only_when_er1_says_it_ran() -> None:
-    cache = SelectionCache()
-    cache.set("1", 1)
-    # Without ER1 a refused move also gets '>' and keeps the old selection: forget.
-    assert cache.after_accepted("1", parse("42"), Framing()) is None
-    assert cache.get("1") is None
-    assert cache.after_accepted("1", parse("42"), Framing(error_mark=True)) == 2
-    assert cache.get("1") == 2
-    assert cache.after_accepted("1", parse("OH100"), Framing()) is False
+    # Without ER1 a refused move also gets '>' and keeps the old selection: not known.
+    assert after_accepted(parse("42"), Framing()) is None
+    assert after_accepted(parse("42"), Framing(error_mark=True)) == 2
+    assert after_accepted(parse("OH100"), Framing()) is False
 
 
 async def test_f_goes_first_only_when_the_selection_differs(make_bus: MakeBus) -> None:
@@ -87,10 +86,18 @@ async def test_f_refused_while_a_motor_moves_keeps_the_setting_off_the_wrong_mot
 ) -> None:
     bus = await make_bus("1")
     await bus.scheduler.submit("1", parse("7"), motor=1)  # jog motor 1 (§10 7)
+    # The state cache knows motor 1 moves: a motor-2 setting waits (its deadline bounds it)
+    # rather than send an F the controller would refuse.
+    with pytest.raises(DeadlineExpired):
+        await bus.scheduler.submit("1", parse("OH4000"), motor=2, deadline=0.3)
+    assert "F2" not in bus.texts()
+    # A cache that never heard of the jog (a gateway started while the motor turns): F2 goes
+    # out, is refused (§10 F), and 97 shows motor 1 still selected.
+    bus.scheduler.use_state(StateCache())
     result = await bus.scheduler.submit("1", parse("OH4000"), motor=2)
-    # §10 F: F is refused while a motor moves; 97 shows motor 1 still selected.
     assert result.outcome is Outcome.NOT_DONE
     assert result.results[0].kind is ReplyKind.SKIPPED
+    assert bus.texts()[-2:] == ["F2", "97"]
     assert "OH4000" not in bus.texts()
     assert bus.controller().settings.motors[1].oh == 5000
     await bus.scheduler.stop("1", "SS")
