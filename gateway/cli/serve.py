@@ -41,7 +41,14 @@ from gateway.service.config import ConfigError, GatewayConfig
 from gateway.service.gateway import Gateway
 from gateway.service.simulated import SIM_LOOP, simulated_config
 from gateway.service.state_log import StateLog
-from gateway.sim.cli import build_loop, default_eeprom_dir, host_port, parse_bodies, positive
+from gateway.sim.cli import (
+    add_clock_option,
+    build_loop,
+    default_eeprom_dir,
+    host_port,
+    parse_bodies,
+    positive,
+)
 from gateway.sim.clock import SimClock
 from gateway.sim.control import Controls, serve_control
 from gateway.sim.loop import SimLoop
@@ -112,6 +119,7 @@ def add_serve_parser(subparsers: Any) -> argparse.ArgumentParser:
     sim.add_argument("--scene", type=Path, metavar="FILE", help="sensor layout (TOML)")
     sim.add_argument("--eeprom-dir", type=Path, metavar="DIR", help="the controllers' EEPROM")
     sim.add_argument("--time-scale", type=positive, default=1.0, metavar="X", help="speed-up")
+    add_clock_option(sim)
     sim.add_argument(
         "--control",
         type=host_port,
@@ -152,9 +160,8 @@ def _simulated(
     sims: list[SimLoop] = []
     transports: dict[str, Transport] = {}
     for name, bodies, series, eeproms in wanted:
-        sim = build_loop(
-            bodies, series=series, scene=scene, eeprom_dir=eeproms, clock=SimClock(args.time_scale)
-        )
+        clock = SimClock(args.time_scale, precise=args.clock == "precise")
+        sim = build_loop(bodies, series=series, scene=scene, eeprom_dir=eeproms, clock=clock)
         sims.append(sim)
         transports[name] = PipeTransport(_port_of(sim))
     return config, sims, transports
