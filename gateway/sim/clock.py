@@ -199,7 +199,8 @@ class Scheduler:
             return
         if self._thread is None:
             self._thread = _WakeThread(loop)
-        self._thread.set(time.monotonic() + delay - _LEAD, functools.partial(self._wake, self._armed))
+        wake = functools.partial(self._wake, self._armed)
+        self._thread.set(time.monotonic() + delay - _LEAD, wake)
 
     def _wake(self, armed: int) -> None:
         if armed != self._armed or self.closed:

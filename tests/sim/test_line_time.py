@@ -8,8 +8,8 @@ socket. The test checks the times against the wire's formula, ``len(reply) * 10 
 turnaround`` after the CR, and the lateness against 0.05 ms of real time; the test's own
 wall-clock jitter plays no part. A late wake now and then (another process had the core: the
 machine is shared, and with both cores busy a third of the replies can wait for one) is no
-fault of the clock: the bar is that the typical exchange is on time. asyncio's own timers (``--clock coarse``, what ``sim`` had before) hand
-the typical reply over 0.5 ms late and more.
+fault of the clock: the bar is that the typical exchange is on time. asyncio's own timers
+(``--clock coarse``, what ``sim`` had before) hand the typical reply over 0.5 ms late.
 """
 
 from __future__ import annotations
