@@ -301,7 +301,8 @@ async def ws_bench(
 
 async def main(args: argparse.Namespace) -> dict[str, Any]:
     child = subprocess.Popen(
-        [sys.executable, __file__, "--serve", "--rate", str(args.rate)],
+        [sys.executable, __file__, "--serve", "--rate", str(args.rate)]
+        + (["--stock-loop"] if args.stock_loop else []),
         stdout=subprocess.PIPE,
         text=True,
     )
@@ -329,9 +330,15 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--rate", type=float, default=20.0, help="axis changes a second")
     parser.add_argument("--concurrency", type=int, default=16, help="HTTP requests in flight")
     parser.add_argument(
-        "--gc-freeze",
+        "--no-gc-freeze",
+        dest="gc_freeze",
+        action="store_false",
+        help="the server does not freeze its heap (gc.freeze, as serve does) before the fan-out",
+    )
+    parser.add_argument(
+        "--stock-loop",
         action="store_true",
-        help="the server freezes its heap (gc.freeze) before the fan-out run",
+        help="the server on asyncio's own event loop instead of serve's (uvloop where installed)",
     )
     parser.add_argument("--quick", action="store_true", help="1 s, 200 clients (make bench)")
     parser.add_argument("--serve", action="store_true", help=argparse.SUPPRESS)
@@ -344,6 +351,10 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
 if __name__ == "__main__":
     arguments = parse_args()
     if arguments.serve:
-        asyncio.run(serve(rate_limit=10_000))
+        from gateway.cli.serve import event_loop_runner
+
+        runner = asyncio.Runner() if arguments.stock_loop else event_loop_runner()
+        with runner:
+            runner.run(serve(rate_limit=10_000))
     else:
         print(json.dumps(asyncio.run(main(arguments)), indent=2))
