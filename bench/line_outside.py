@@ -100,9 +100,9 @@ class Bench:
                 raise SystemExit(f"{argv}: {line or 'ended'} (see {err.name})")
         return proc
 
-    def sim(self, port: int, bodies: str) -> None:
+    def sim(self, port: int, bodies: str, *options: str) -> None:
         self.start(
-            *CLI, "sim", "--tcp", f"127.0.0.1:{port}", "--bodies", bodies,
+            *CLI, "sim", "--tcp", f"127.0.0.1:{port}", "--bodies", bodies, *options,
             "--eeprom-dir", str(self.tmp / f"eeprom{port}"), ready="listening", log=f"sim{port}",
         )  # fmt: skip
 
@@ -204,6 +204,23 @@ async def line_phase(port: int, seconds: float, callers: int) -> tuple[list[floa
     return sent, start, end
 
 
+async def sim_lateness(port: int) -> dict[str, Any]:
+    """The simulator's own record of how late it handed each reply over (its ``trace``):
+    what the proxy's figure holds beside the proxy's own delays. Older simulators keep none."""
+    reader, writer = await asyncio.open_connection("127.0.0.1", port, limit=1 << 26)
+    writer.write(b'{"op": "trace"}\n')
+    reply = json.loads(await reader.readline())
+    writer.close()
+    late = [r["late"] for r in reply.get("trace", []) if r["kind"] == "reply" and "late" in r]
+    if not late:
+        return {"sim_own_late_ms_median": None, "sim_own_late_ms_p99": None}
+    ordered = sorted(late)
+    return {
+        "sim_own_late_ms_median": round(statistics.median(late) * 1000, 3),
+        "sim_own_late_ms_p99": round(ordered[int(0.99 * (len(ordered) - 1))] * 1000, 3),
+    }
+
+
 def run_part(*argv: str) -> dict[str, Any]:
     out = subprocess.run([sys.executable, PARTS, *argv], capture_output=True, check=True)
     result: dict[str, Any] = json.loads(out.stdout.decode().strip().splitlines()[-1])
@@ -236,9 +253,9 @@ async def run(args: argparse.Namespace, bench: Bench) -> dict[str, Any]:
     load = [round(x, 2) for x in os.getloadavg()]
     ports = {
         name: free_port()
-        for name in ("sim", "naive", "sim15", "p", "pn", "p15", "h", "h15", "bare")
+        for name in ("sim", "control", "naive", "sim15", "p", "pn", "p15", "h", "h15", "bare")
     }
-    bench.sim(ports["sim"], "1,2,3")
+    bench.sim(ports["sim"], "1,2,3", "--control", f"127.0.0.1:{ports['control']}")
     bench.sim(ports["naive"], "1")
     bodies15 = ",".join("0123456789ABCDE")
     bench.sim(ports["sim15"], bodies15)
@@ -253,6 +270,7 @@ async def run(args: argparse.Namespace, bench: Bench) -> dict[str, Any]:
     pid = bench.gateway("gateway", ports["p"], "1,2,3", ports["h"])
     await wait_ready(ports["h"], "/api/v1/axes/x")
     sent, start, end = await line_phase(ports["h"], args.seconds, args.callers)
+    own_late = await sim_lateness(ports["control"])
     # Phase 2: one watched axis moving, nothing else asked.
     move = {"position": 2_000_000, "relative": True, "unit": "pulse"}
     status, text = await http(ports["h"], "POST", "/api/v1/axes/x/move", move)
@@ -296,7 +314,7 @@ async def run(args: argparse.Namespace, bench: Bench) -> dict[str, Any]:
         "load_average_before": load,
         "load_average_after": [round(x, 2) for x in os.getloadavg()],
         "seconds_a_phase": args.seconds,
-        "line": line,
+        "line": {**line, **own_late},
         "watched_axis": {
             **watched,
             "naive_pyserial_per_s": round(naive["per_second"], 1),
