@@ -80,8 +80,9 @@ def free_port() -> int:
 class Bench:
     """The processes of a run and what they need."""
 
-    def __init__(self, src: Path | None, tmp: Path) -> None:
+    def __init__(self, src: Path | None, python: str, tmp: Path) -> None:
         self.tmp = tmp
+        self.python = python  # of the gateway, the simulator and the bare app
         self.env = {**os.environ, "XDG_DATA_HOME": str(tmp)}
         if src is not None:
             self.env["PYTHONPATH"] = str(src)
@@ -89,8 +90,10 @@ class Bench:
 
     def start(self, *argv: str, ready: str | None = None, log: str = "") -> subprocess.Popen[bytes]:
         err = open(self.tmp / f"{log or argv[1]}.log", "ab")  # noqa: SIM115
+        # cwd: the temporary directory, so that `python -c` finds the gateway of --src or
+        # --python, not the one of the directory the benchmark was started in.
         proc = subprocess.Popen(
-            [sys.executable, *argv], stdout=subprocess.PIPE, stderr=err, env=self.env
+            [self.python, *argv], stdout=subprocess.PIPE, stderr=err, env=self.env, cwd=self.tmp
         )
         self.procs.append(proc)
         if ready is not None:
@@ -242,8 +245,8 @@ def parse_start(bench: Bench) -> float:
     for _ in range(3):
         start = time.monotonic()
         subprocess.run(
-            [sys.executable, *CLI, "parse", "OH99999"],
-            env=bench.env, capture_output=True, check=False,
+            [bench.python, *CLI, "parse", "OH99999"],
+            env=bench.env, cwd=bench.tmp, capture_output=True, check=False,
         )  # fmt: skip
         times.append(time.monotonic() - start)
     return statistics.median(times)
@@ -345,9 +348,15 @@ def main() -> None:
     parser.add_argument("--seconds", type=float, default=10.0, help="seconds a phase")
     parser.add_argument("--callers", type=int, default=12, help="HTTP clients in phase 1")
     parser.add_argument("--src", type=Path, help="run the gateway from this source tree")
+    parser.add_argument(
+        "--python",
+        default=sys.executable,
+        help="the Python (of a virtual environment) that runs the gateway, the simulator and "
+        "the bare app: another installation, with its own uvicorn, for figures before a change",
+    )
     args = parser.parse_args()
     with tempfile.TemporaryDirectory(prefix="line-outside-") as tmp:
-        bench = Bench(args.src, Path(tmp))
+        bench = Bench(args.src, args.python, Path(tmp))
         try:
             figures = asyncio.run(run(args, bench))
         finally:
