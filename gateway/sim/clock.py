@@ -148,7 +148,8 @@ class Scheduler:
         self.time = clock.now()
         self._tasks: list[_Task] = []
         self._seq = 0
-        self._timer: asyncio.Handle | None = None
+        self._timer: asyncio.TimerHandle | None = None
+        self._spin: asyncio.Handle | None = None  # a precise clock's look again
         self._timer_at = float("inf")
         self._thread: _WakeThread | None = None  # the precise clock's timer
         self._armed = 0  # settings of the timer so far
@@ -188,38 +189,44 @@ class Scheduler:
             loop = asyncio.get_running_loop()
         except RuntimeError:
             return
-        if self._timer is not None:
-            self._timer.cancel()
-            self._timer = None
+        self._cancel()
         self._timer_at = first
         self._armed += 1  # a wake handed over for an earlier setting is stale
         delay = self.clock.real_delay(first)
+        self._timer = loop.call_later(delay, self._wake, self._armed)
         if not self.clock.precise:
-            self._timer = loop.call_later(delay, self._wake, self._armed)
             return
+        # Precise: the loop's own timer is on time while the loop is busy (its waits are not
+        # rounded then) and the thread while it is idle (they are); the first to come wakes.
         if self._thread is None:
             self._thread = _WakeThread(loop)
         wake = functools.partial(self._wake, self._armed)
         self._thread.set(time.monotonic() + delay - _LEAD, wake)
 
+    def _cancel(self) -> None:
+        for handle in (self._timer, self._spin):
+            if handle is not None:
+                handle.cancel()
+        self._timer = self._spin = None
+
     def _wake(self, armed: int) -> None:
         if armed != self._armed or self.closed:
             return
-        self._timer, self._timer_at = None, float("inf")
         if self.clock.precise and self._tasks and self._tasks[0].time > self.clock.now():
             # Handed over a little early on purpose: let the event loop run, and look again.
-            self._timer_at = self._tasks[0].time
-            self._timer = asyncio.get_running_loop().call_soon(self._wake, armed)
+            if self._spin is not None:
+                self._spin.cancel()
+            self._spin = asyncio.get_running_loop().call_soon(self._wake, armed)
             return
+        self._cancel()
+        self._timer_at = float("inf")
         self.run_due(self.clock.now())
         self.kick()
 
     def close(self) -> None:
         """Stop the timer; nothing runs any more by itself."""
         self.closed = True
-        if self._timer is not None:
-            self._timer.cancel()
-            self._timer = None
+        self._cancel()
         if self._thread is not None:
             self._thread.close()
             self._thread = None
