@@ -78,6 +78,7 @@ contract: $(STAMP)
 # The benchmarks print figures; here at scaled time (by hand: real time, see bench/README.md).
 bench: $(STAMP) system-tools
 	$(BIN)/python bench/line_efficiency.py --time-scale 10 --seconds 3
+	$(BIN)/python bench/line_outside.py --seconds 2
 	$(BIN)/python bench/api.py --quick
 	$(BIN)/python bench/dashboard.py --seconds 3
 

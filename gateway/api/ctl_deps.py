@@ -36,7 +36,7 @@ Operator = Annotated[Principal, Depends(require(Role.OPERATOR))]
 Admin = Annotated[Principal, Depends(require(Role.ADMIN))]
 
 
-def controllers(request: Request) -> ControllerService:
+async def controllers(request: Request) -> ControllerService:
     """The controller service of the app."""
     service: ControllerService = request.app.state.controllers
     return service
@@ -45,7 +45,7 @@ def controllers(request: Request) -> ControllerService:
 Service = Annotated[ControllerService, Depends(controllers)]
 
 
-def stops(request: Request) -> StopAll:
+async def stops(request: Request) -> StopAll:
     """The stop-all of the app (controllers and loops)."""
     service: StopAll = request.app.state.stops
     return service

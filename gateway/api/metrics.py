@@ -26,6 +26,7 @@ from typing import Protocol
 from fastapi import FastAPI
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
+from gateway.api.access_log import log_access
 from gateway.api.exposition import Exposition, Histogram
 from gateway.api.metrics_cell import CellMetrics, render_build_and_process
 from gateway.api.security import api_routes
@@ -177,7 +178,8 @@ class RouteTemplates:
 
 
 class HttpMetricsMiddleware:
-    """Count every HTTP request by its route template (``/api/v1/axes/{id}``)."""
+    """Count every HTTP request by its route template (``/api/v1/axes/{id}``), and write its
+    access line (``gateway.api.access_log``)."""
 
     def __init__(self, app: ASGIApp, metrics: Metrics) -> None:
         self.app = app
@@ -207,6 +209,7 @@ class HttpMetricsMiddleware:
             if status is not None:  # None: the client went away before any answer
                 seconds = time.perf_counter() - began
                 self.http.observe(self.routes.label(scope), scope["method"], status, seconds)
+                log_access(scope, status)
 
 
 #: CountersSnapshot field -> (metric name, help)

@@ -59,12 +59,17 @@ Timeout = Annotated[
 ]
 
 
-def _axes(request: Request) -> AxisService:
+def _axes_of(request: Request) -> AxisService:
     service: AxisService = request.app.state.axes
     return service
 
 
-def _operations(request: Request) -> Operations:
+async def _axes(request: Request) -> AxisService:
+    # async: a sync dependency costs every request a hop to the thread pool and back.
+    return _axes_of(request)
+
+
+async def _operations(request: Request) -> Operations:
     service: Operations = request.app.state.operations
     return service
 
@@ -271,12 +276,12 @@ async def acknowledge(
 
 # ---------------------------------------------------------------------- leases
 
-lease_routes(router, "axes", "axis", lambda request, ident: _axes(request).ref(ident).id)
+lease_routes(router, "axes", "axis", lambda request, ident: _axes_of(request).ref(ident).id)
 lease_routes(
     router,
     "controllers",
     "controller",
-    lambda request, ident: _axes(request).gateway.topology.controller(ident).id,
+    lambda request, ident: _axes_of(request).gateway.topology.controller(ident).id,
 )
 
 __all__ += ["LeaseRequest", "LeaseView"]

@@ -55,7 +55,7 @@ def lease_view(leases: Leases, resource: str, lease: Lease | None) -> LeaseView:
     )
 
 
-def _leases(request: Request) -> Leases:
+async def _leases(request: Request) -> Leases:
     leases: Leases = request.app.state.leases
     return leases
 

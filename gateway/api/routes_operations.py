@@ -25,7 +25,7 @@ router = APIRouter(tags=["operations"], responses=PROBLEM_RESPONSES)
 Viewer = Annotated[Principal, Depends(require(Role.VIEWER))]
 
 
-def _operations(request: Request) -> Operations:
+async def _operations(request: Request) -> Operations:
     operations: Operations = request.app.state.operations
     return operations
 

@@ -9,7 +9,9 @@ One connection, one feed client. Decisions (see ``ws_messages.CLOSE_CODES``):
 * Client messages are JSON text: ``subscribe`` (topics, optional ``since``/``stream`` to
   resume), ``unsubscribe``, ``ping``. A message that does not fit is answered with an
   ``error`` naming the field and the rule; the connection stays open.
-* One sender task per connection takes the client's queue in order and writes it; it alone
+* A message goes straight to the client's socket when nothing is queued ahead of it and the
+  socket takes data (``gateway.api.ws_direct``: no task switch per client); otherwise one
+  sender task per connection takes the client's queue in order and writes it; it alone
   waits on a slow socket. When the queue overflows (``ws.backlog`` unsent messages) the feed
   drops the client at once and this handler closes the connection with 4008 "backlog
   exceeded" (counted as dropped in the metrics). Nobody else waits for it.
@@ -33,6 +35,7 @@ from fastapi import APIRouter, FastAPI, WebSocket
 from pydantic import ValidationError
 
 from gateway.api.security import AuthConfig, authenticate_websocket
+from gateway.api.ws_direct import direct_writer
 from gateway.api.ws_messages import (
     ClientMessage,
     PingMessage,
@@ -123,6 +126,7 @@ async def serve_client(
         await ws.close(4403, f"the {principal.role} role may not subscribe")
         return
     client = feed.open(backlog)
+    client.direct = direct_writer(ws._send)  # None on a server it does not know
     if stats:
         stats.connected()
     tasks = [
@@ -160,7 +164,11 @@ async def _send(ws: WebSocket, client: FeedClient) -> None:
     """The client's queue, in order, to its socket (the only task that waits on it)."""
     while True:
         text = await client.get()
-        await ws.send_text(text)
+        client.sending = True  # no direct write may overtake this one
+        try:
+            await ws.send_text(text)
+        finally:
+            client.sending = False
 
 
 async def _receive(ws: WebSocket, client: FeedClient) -> None:

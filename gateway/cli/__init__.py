@@ -1,8 +1,9 @@
 """The ``rc233-gateway`` command line.
 
-``trace``, ``audit`` and ``--version`` are what people type at a terminal on site, against a
-running gateway: they start without importing the API, the service and the simulator (about
-1.5 s of CPU on the gateway computer), which the other subcommands import when they run.
+``trace``, ``audit``, ``parse``, ``catalog`` and ``--version`` are what people type at a terminal
+on site (the first two against a running gateway): they start without importing the API, the
+service and the simulator (about 1.5 s of CPU on the gateway computer), which the other
+subcommands import when they run.
 """
 
 from __future__ import annotations
@@ -19,8 +20,9 @@ from gateway.cli.remote import add_remote_parsers
 __all__ = ["main"]
 
 
-#: Subcommands served by the light parser (``_light_parser``).
-LIGHT_COMMANDS = ("trace", "audit")
+#: Subcommands served by the light parser (``_light_parser``): nothing but the protocol layer
+#: (``parse``, ``catalog``) or the HTTP client (``trace``, ``audit``) behind them.
+LIGHT_COMMANDS = ("trace", "audit", "parse", "catalog")
 
 
 def _catalog(args: argparse.Namespace) -> int:
@@ -66,18 +68,10 @@ def build_parser() -> argparse.ArgumentParser:
     from gateway.cli.check_config import add_check_config_parser
     from gateway.cli.documents import add_document_parsers
     from gateway.cli.serve import add_serve_parser
-    from gateway.protocol.params import PositionFormat
     from gateway.sim.cli import add_sim_parser
 
     parser, sub = _root()
-    cat = sub.add_parser("catalog", help="print every command of the manual")
-    cat.add_argument("--json", action="store_true", help="one JSON object per mnemonic")
-    cat.set_defaults(func=_catalog)
-    prs = sub.add_parser("parse", help="parse command text the way the gateway does")
-    prs.add_argument("text", help="text between body number and CR, e.g. OH4000")
-    prs.add_argument("--program", action="store_true", help="as a user-program statement")
-    prs.add_argument("--positions", choices=[f.value for f in PositionFormat])
-    prs.set_defaults(func=_parse)
+    _add_protocol_parsers(sub)
     add_sim_parser(sub)
     add_serve_parser(sub)
     add_check_config_parser(sub)
@@ -86,15 +80,32 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _add_protocol_parsers(sub: Any) -> None:
+    """``catalog`` and ``parse``: the protocol layer only."""
+    from gateway.protocol.params import PositionFormat
+
+    cat = sub.add_parser("catalog", help="print every command of the manual")
+    cat.add_argument("--json", action="store_true", help="one JSON object per mnemonic")
+    cat.set_defaults(func=_catalog)
+    prs = sub.add_parser("parse", help="parse command text the way the gateway does")
+    prs.add_argument("text", help="text between body number and CR, e.g. OH4000")
+    prs.add_argument("--program", action="store_true", help="as a user-program statement")
+    prs.add_argument("--positions", choices=[f.value for f in PositionFormat])
+    prs.set_defaults(func=_parse)
+
+
 def _root() -> tuple[argparse.ArgumentParser, Any]:
     parser = argparse.ArgumentParser(prog="rc233-gateway", description=__doc__)
     parser.add_argument("--version", action="version", version=f"rc233-gateway {__version__}")
     return parser, parser.add_subparsers(dest="cmd", required=True)
 
 
-def _light_parser() -> argparse.ArgumentParser:
+def _light_parser(command: str) -> argparse.ArgumentParser:
     parser, sub = _root()
-    add_remote_parsers(sub)
+    if command in ("parse", "catalog"):
+        _add_protocol_parsers(sub)
+    else:
+        add_remote_parsers(sub)
     return parser
 
 
@@ -102,7 +113,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the console script."""
     words = list(sys.argv[1:] if argv is None else argv)
     light = bool(words) and (words[0] in LIGHT_COMMANDS or words[0] == "--version")
-    args = (_light_parser() if light else build_parser()).parse_args(words)
+    args = (_light_parser(words[0]) if light else build_parser()).parse_args(words)
     code: int = args.func(args)
     return code
 

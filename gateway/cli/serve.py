@@ -40,7 +40,14 @@ from gateway.service.config import ConfigError, GatewayConfig
 from gateway.service.gateway import Gateway
 from gateway.service.simulated import SIM_LOOP, simulated_config
 from gateway.service.state_log import StateLog
-from gateway.sim.cli import build_loop, default_eeprom_dir, host_port, parse_bodies, positive
+from gateway.sim.cli import (
+    add_clock_option,
+    build_loop,
+    default_eeprom_dir,
+    host_port,
+    parse_bodies,
+    positive,
+)
 from gateway.sim.clock import SimClock
 from gateway.sim.control import Controls, serve_control
 from gateway.sim.loop import SimLoop
@@ -111,6 +118,7 @@ def add_serve_parser(subparsers: Any) -> argparse.ArgumentParser:
     sim.add_argument("--scene", type=Path, metavar="FILE", help="sensor layout (TOML)")
     sim.add_argument("--eeprom-dir", type=Path, metavar="DIR", help="the controllers' EEPROM")
     sim.add_argument("--time-scale", type=positive, default=1.0, metavar="X", help="speed-up")
+    add_clock_option(sim)
     sim.add_argument(
         "--control",
         type=host_port,
@@ -151,9 +159,8 @@ def _simulated(
     sims: list[SimLoop] = []
     transports: dict[str, Transport] = {}
     for name, bodies, series, eeproms in wanted:
-        sim = build_loop(
-            bodies, series=series, scene=scene, eeprom_dir=eeproms, clock=SimClock(args.time_scale)
-        )
+        clock = SimClock(args.time_scale, precise=args.clock == "precise")
+        sim = build_loop(bodies, series=series, scene=scene, eeprom_dir=eeproms, clock=clock)
         sims.append(sim)
         transports[name] = sim_line(sim)
     return config, sims, transports
@@ -243,6 +250,7 @@ async def serve(args: argparse.Namespace) -> int:
             port=args.port,
             log_level="debug" if args.verbose else "info",
             log_config=None,  # uvicorn's lines go through the one handler (text or JSON)
+            access_log=False,  # written by the app, cheaply (gateway.api.access_log)
             **uvicorn_ws_options(config.ws),
             timeout_graceful_shutdown=10,
         )
@@ -274,13 +282,29 @@ async def serve(args: argparse.Namespace) -> int:
     return 0
 
 
+def event_loop_runner() -> asyncio.Runner:
+    """A runner on uvloop where it is installed (``uvicorn[standard]``), else asyncio's own.
+
+    uvloop's loop is libuv's: the scheduler, the HTTP server and the WebSocket fan-out each
+    spend less CPU a callback there (docs/performance.md). Everything the gateway does on
+    the loop is public asyncio API (readers on the serial port's descriptor, signal
+    handlers, sockets), which uvloop implements.
+    """
+    try:
+        import uvloop
+    except ImportError:  # a platform without it (Windows): the stock loop
+        return asyncio.Runner()
+    return asyncio.Runner(loop_factory=uvloop.new_event_loop)
+
+
 def _main(args: argparse.Namespace) -> int:
     if args.config is None and not args.simulate:
         print("rc233-gateway serve: give --config FILE, --simulate, or both", file=sys.stderr)
         return 2
     configure_logging(args.log_format, verbose=args.verbose)
     try:
-        return asyncio.run(serve(args))
+        with event_loop_runner() as runner:
+            return runner.run(serve(args))
     except (ConfigError, SceneError, OSError) as exc:
         print(f"rc233-gateway serve: {exc}", file=sys.stderr)
         return 2

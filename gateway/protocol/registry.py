@@ -18,13 +18,14 @@ import re
 from collections.abc import Iterable
 from dataclasses import dataclass
 from enum import StrEnum
+from functools import cached_property
 from typing import Annotated, Any, Union
 
 from pydantic import Field, ValidationError
 
 from gateway.errors import CommandFormError, InvalidInputError, ParameterError, UnknownCommandError
 from gateway.protocol.catalog import ALL_COMMANDS
-from gateway.protocol.models import Command, build_model
+from gateway.protocol.models import Command, build_model, form_key
 from gateway.protocol.params import Param, Position, PositionFormat
 from gateway.protocol.spec import CommandSpec, Form
 
@@ -48,18 +49,24 @@ class Context(StrEnum):
 
 @dataclass(frozen=True)
 class Entry:
-    """One form with its model and its compiled patterns."""
+    """One form with its compiled patterns, and its model (built when first asked for)."""
 
     spec: CommandSpec
     form: Form
-    model: type[Command]
     strict: re.Pattern[str]
     loose: re.Pattern[str]
+
+    @cached_property
+    def model(self) -> type[Command]:
+        """The pydantic model of the form. Built on first use: the catalog's 300-odd models
+        take a good part of a second to create, which a command line that parses one text
+        (``rc233-gateway parse``) should not pay."""
+        return build_model(self.spec, self.form)
 
     @property
     def key(self) -> str:
         """The form key (its syntax; '/'-prefixed in chapter 12)."""
-        return self.model.key
+        return form_key(self.spec, self.form)
 
     @property
     def lead(self) -> str:
@@ -117,8 +124,7 @@ class Registry:
                 raise ValueError(f"mnemonic {spec.mnemonic!r} defined twice")
             self._by_mnemonic[spec.mnemonic] = spec
             for form in spec.forms:
-                model = build_model(spec, form)
-                entry = Entry(spec, form, model, _pattern(form, False), _pattern(form, True))
+                entry = Entry(spec, form, _pattern(form, False), _pattern(form, True))
                 if entry.key in self._by_key:
                     raise ValueError(f"form key {entry.key!r} defined twice")
                 self._by_key[entry.key] = entry

@@ -90,6 +90,11 @@ class FeedClient:
         self.dropped = False
         #: set when the client is off the feed: dropped, closed, or the feed closed
         self.ended = asyncio.Event()
+        #: writes a message to the client's socket at once, or answers False (then it is
+        #: queued); set by the transport (gateway.api.ws_direct), None: always queue
+        self.direct: Callable[[str], bool] | None = None
+        #: True while the sender writes a message it took from the queue
+        self.sending = False
 
     @property
     def pending(self) -> int:
@@ -100,6 +105,10 @@ class FeedClient:
         """Queue one message without waiting; False (and the client dropped) when full."""
         if self.ended.is_set():
             return False
+        # Straight to the socket when nothing is ahead of it: no task switch per client.
+        direct = self.direct
+        if direct is not None and not self._queue and not self.sending and direct(text):
+            return True
         if len(self._queue) >= self.backlog:
             self.dropped = True
             self._feed._remove(self, dropped=True)

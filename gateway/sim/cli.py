@@ -30,6 +30,7 @@ from gateway.sim.scene import Scene, SceneError, load_scene
 from gateway.sim.serve import PtyLine, serve_tcp
 
 __all__ = [
+    "add_clock_option",
     "add_sim_parser",
     "build_loop",
     "default_eeprom_dir",
@@ -104,6 +105,7 @@ def add_sim_parser(subparsers: Any) -> argparse.ArgumentParser:
         help=f"where the controllers keep their EEPROM (default {default_eeprom_dir()})",
     )
     sim.add_argument("--time-scale", type=positive, default=1.0, metavar="X", help="speed-up")
+    add_clock_option(sim)
     sim.add_argument(
         "--baud", type=int, default=9600, choices=sorted(UART_RATES), metavar="BPS",
         help="the line's (the host's) baud rate; default 9600 (§10 ES factory setting)",
@@ -121,6 +123,16 @@ def add_sim_parser(subparsers: Any) -> argparse.ArgumentParser:
     sim.add_argument("-v", "--verbose", action="store_true", help="log connections")
     sim.set_defaults(func=_main)
     return sim
+
+
+def add_clock_option(parser: Any) -> None:
+    """``--clock precise|coarse`` (see ``SimClock``): replies on time to some 0.05 ms, or
+    asyncio's timers (up to a millisecond and more late, no timer thread)."""
+    parser.add_argument(
+        "--clock", choices=["precise", "coarse"], default="precise",
+        help="precise (default): replies within some 0.05 ms of their wire time; coarse: "
+        "asyncio's timers (a millisecond or so late)",
+    )  # fmt: skip
 
 
 def build_loop(
@@ -167,7 +179,7 @@ async def run_sim(args: argparse.Namespace) -> int:
         series=Series(args.series),
         scene=scene,
         eeprom_dir=eeprom_dir,
-        clock=SimClock(args.time_scale),
+        clock=SimClock(args.time_scale, precise=args.clock == "precise"),
         baud=args.baud,
         turnaround=args.turnaround_ms / 1000,
         faults=_faults(args),

@@ -15,6 +15,7 @@ from __future__ import annotations
 import asyncio
 import functools
 import heapq
+import threading
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
@@ -31,11 +32,15 @@ class SimClock:
     loop uses, so ``real_delay`` values are right for ``loop.call_later``. Tests can pass their
     own function and move it by hand.
 
-    ``precise``: asyncio's timers wake late by up to a millisecond (epoll waits are rounded up
-    to whole milliseconds), which at real time is a tenth of a character at 9600 bps. With
-    ``precise`` the scheduler wakes a little early and then yields to the event loop until the
-    time has come (``call_soon``, no blocking), for measurements at real character timing
-    (the benchmarks). It costs CPU while it waits, so tests leave it off.
+    ``precise``: asyncio's timers wake late by up to a millisecond and more (epoll waits are
+    rounded up to whole milliseconds), which at real time is a character at 9600 bps: a
+    reply that reaches the host a millisecond late is a line that runs 5-10 % slow. With
+    ``precise`` the scheduler's timer is a thread that sleeps until just before the time (the
+    kernel's timers are good to some 0.1 ms) and hands the wake to the event loop, which
+    yields (``call_soon``, no blocking) for the last fraction of a millisecond: the host gets
+    each reply within some 0.05 ms of its time at almost no CPU. ``rc233-gateway sim`` and
+    ``serve --simulate`` run precise; unit tests that move time by hand cannot (their
+    ``time_fn`` is not the real clock).
     """
 
     def __init__(
@@ -77,8 +82,56 @@ class _Task:
     action: Callable[[], None] = field(compare=False)
 
 
-#: How much earlier than due a precise clock's timer wakes (asyncio rounds waits up to 1 ms).
-_EARLY = 0.0015
+#: How much earlier than due a precise clock's thread hands the wake to the event loop; the
+#: rest of the wait is spent yielding to the loop (``call_soon``).
+_LEAD = 0.0003
+
+
+class _WakeThread:
+    """A thread that calls ``wake`` on the event loop at (just before) a real time.
+
+    The event loop's own timers are rounded up to whole milliseconds; a condition variable's
+    timed wait is not. The thread only ever hands ``wake`` to the loop
+    (``call_soon_threadsafe``): everything the simulator does stays on the loop's thread.
+    """
+
+    def __init__(self, aio: asyncio.AbstractEventLoop) -> None:
+        self._aio = aio
+        self._due: float | None = None  # time.monotonic() to hand the wake over at
+        self._wake: Callable[[], None] | None = None
+        self._closed = False
+        self._cond = threading.Condition()
+        self._thread = threading.Thread(target=self._run, name="sim-clock", daemon=True)
+        self._thread.start()
+
+    def set(self, due: float, wake: Callable[[], None]) -> None:
+        """Call ``wake`` on the loop at ``due`` (monotonic seconds), instead of any before."""
+        with self._cond:
+            self._due, self._wake = due, wake
+            self._cond.notify()
+
+    def close(self) -> None:
+        """End the thread (it hands nothing over any more)."""
+        with self._cond:
+            self._closed = True
+            self._cond.notify()
+
+    def _run(self) -> None:
+        with self._cond:
+            while not self._closed:
+                if self._due is None:
+                    self._cond.wait()
+                    continue
+                left = self._due - time.monotonic()
+                if left > 0:
+                    self._cond.wait(left)
+                    continue
+                wake, self._due, self._wake = self._wake, None, None
+                try:
+                    if wake is not None:
+                        self._aio.call_soon_threadsafe(wake)
+                except RuntimeError:  # the loop closed under us
+                    return
 
 
 class Scheduler:
@@ -95,8 +148,11 @@ class Scheduler:
         self.time = clock.now()
         self._tasks: list[_Task] = []
         self._seq = 0
-        self._timer: asyncio.Handle | None = None
+        self._timer: asyncio.TimerHandle | None = None
+        self._spin: asyncio.Handle | None = None  # a precise clock's look again
         self._timer_at = float("inf")
+        self._thread: _WakeThread | None = None  # the precise clock's timer
+        self._armed = 0  # settings of the timer so far
         self.closed = False
 
     def now(self) -> float:
@@ -123,40 +179,57 @@ class Scheduler:
         self.time = max(self.time, now)
 
     def kick(self) -> None:
-        """Set the asyncio timer for the first action (no-op outside an event loop)."""
+        """Set the timer for the first action (no-op outside an event loop)."""
         if not self._tasks or self.closed:
             return
         first = self._tasks[0].time
-        if self._timer is not None and self._timer_at <= first:
+        if self._timer_at <= first:  # already set for it, or for something earlier
             return
         try:
             loop = asyncio.get_running_loop()
         except RuntimeError:
             return
-        if self._timer is not None:
-            self._timer.cancel()
+        self._cancel()
         self._timer_at = first
+        self._armed += 1  # a wake handed over for an earlier setting is stale
         delay = self.clock.real_delay(first)
-        if self.clock.precise:
-            delay = max(0.0, delay - _EARLY)
-        self._timer = loop.call_later(delay, self._wake)
-
-    def _wake(self) -> None:
-        self._timer, self._timer_at = None, float("inf")
-        if self.clock.precise and self._tasks and self._tasks[0].time > self.clock.now():
-            # Woken early on purpose: let the event loop run, and look again.
-            self._timer_at = self._tasks[0].time
-            self._timer = asyncio.get_running_loop().call_soon(self._wake)
+        self._timer = loop.call_later(delay, self._wake, self._armed)
+        if not self.clock.precise:
             return
+        # Precise: the loop's own timer is on time while the loop is busy (its waits are not
+        # rounded then) and the thread while it is idle (they are); the first to come wakes.
+        if self._thread is None:
+            self._thread = _WakeThread(loop)
+        wake = functools.partial(self._wake, self._armed)
+        self._thread.set(time.monotonic() + delay - _LEAD, wake)
+
+    def _cancel(self) -> None:
+        for handle in (self._timer, self._spin):
+            if handle is not None:
+                handle.cancel()
+        self._timer = self._spin = None
+
+    def _wake(self, armed: int) -> None:
+        if armed != self._armed or self.closed:
+            return
+        if self.clock.precise and self._tasks and self._tasks[0].time > self.clock.now():
+            # Handed over a little early on purpose: let the event loop run, and look again.
+            if self._spin is not None:
+                self._spin.cancel()
+            self._spin = asyncio.get_running_loop().call_soon(self._wake, armed)
+            return
+        self._cancel()
+        self._timer_at = float("inf")
         self.run_due(self.clock.now())
         self.kick()
 
     def close(self) -> None:
         """Stop the timer; nothing runs any more by itself."""
         self.closed = True
-        if self._timer is not None:
-            self._timer.cancel()
-            self._timer = None
+        self._cancel()
+        if self._thread is not None:
+            self._thread.close()
+            self._thread = None
 
 
 class RecordKind(StrEnum):
@@ -186,6 +259,9 @@ class LineRecord:
     body: str | None = None
     ref: int = 0  # the number of the host frame this belongs to (1, 2, ...); 0 = none
     note: str = ""
+    #: What reached the host (REPLY, LATER, ECHO): simulated seconds after ``time`` that the
+    #: simulator handed it over, by its clock (how late its timer woke).
+    late: float = 0.0
 
 
 class LineLog:
@@ -205,9 +281,10 @@ class LineLog:
         body: str | None = None,
         ref: int = 0,
         note: str = "",
+        late: float = 0.0,
     ) -> LineRecord:
         """Append a record and wake the waiters."""
-        record = LineRecord(self.next_seq, time, kind, data, body, ref, note)
+        record = LineRecord(self.next_seq, time, kind, data, body, ref, note, late)
         self.next_seq += 1
         self._records.append(record)
         if len(self._records) > 2 * self._size:

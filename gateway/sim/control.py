@@ -100,6 +100,7 @@ class Controls:
                 "body": r.body,
                 "ref": r.ref,
                 "note": r.note,
+                "late": r.late,
             }
             for r in self.loop.log.since(since)
         ]

@@ -164,7 +164,8 @@ class Line(ABC):
             self.log.add(now, kind, message.data, body=unit.device.body, ref=ref, note=lost)
         else:
             heard = uart_noise(message.data, message.bps, self.baud)
-            self.log.add(now, message.kind, heard, body=unit.device.body, ref=ref)
+            late = self.clock.now() - now  # the timer's lateness: the host gets it now
+            self.log.add(now, message.kind, heard, body=unit.device.body, ref=ref, late=late)
             assert self._host is not None
             self._host.sink(heard)
         self._sent(message, now)

@@ -8,9 +8,9 @@ source):
   callbacks. The library closes it (drain, ``close``) in the executor. A vanished device
   (USB unplugged, pty closed) reads as an error or as readable-but-empty: the library closes
   the port and ``connection_lost`` carries the reason.
-* ``socket://HOST:PORT`` (a serial device server in TCP-server mode: ser2net, Moxa):
-  ``create_serial_connection`` makes an unopened pyserial object in the executor and connects
-  with ``loop.create_connection`` - nothing blocks. TCP keepalive is turned on here so that a
+* ``socket://HOST:PORT`` (a serial device server in TCP-server mode: ser2net, Moxa): a TCP
+  connection made with ``loop.create_connection`` (Nagle off, as asyncio and uvloop set it) -
+  nothing blocks. TCP keepalive is turned on here so that a
   half-open connection (device server rebooted, cable pulled) is found; an orderly close by the
   server arrives as EOF.
 * ``rfc2217://HOST:PORT``: pyserial's RFC 2217 port has no file descriptor (the library's
@@ -303,13 +303,19 @@ class SerialLine(BufferedTransport):
         }
 
     async def _open_socket(self, protocol: LineProtocol) -> _Port:
+        # A plain TCP connection on the event loop. Not the library's create_serial_connection:
+        # it sets attributes on the loop's transport object, which uvloop's (the loop serve
+        # runs on) does not take, and nothing of the pyserial object it makes is used here.
+        parts = urllib.parse.urlsplit(self.url)
+        host, port = parts.hostname or "", parts.port or 0  # both there: LineKind.of
         loop = asyncio.get_running_loop()
         transport, _ = await asyncio.wait_for(
-            serial_asyncio_fast.create_serial_connection(loop, lambda: protocol, self.url),
+            loop.create_connection(lambda: protocol, host, port),
             self.open_timeout,
         )
-        if self.keepalive is not None:
-            self.keepalive.apply(transport.get_extra_info("socket"))
+        sock = transport.get_extra_info("socket")
+        if self.keepalive is not None and sock is not None:
+            self.keepalive.apply(sock)
         return _AioPort(transport, protocol, self.close_timeout)
 
     async def _open_device(self, protocol: LineProtocol) -> _Port:

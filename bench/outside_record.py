@@ -1,0 +1,114 @@
+"""What the proxy's record of bench/line_outside.py says: exchanges, gaps, stops, poll rates.
+
+A row is ``(monotonic time, line name, "h2d" | "d2h", bytes as latin-1)``. The gateway writes
+a frame in one piece, so an ``h2d`` row is one frame; the ``d2h`` rows up to the next frame
+are its reply (the simulator may deliver it in several pieces: the last one counts).
+"""
+
+from __future__ import annotations
+
+import itertools
+import re
+import statistics
+from dataclasses import dataclass
+
+CHAR = 10 / 9600  # seconds a character at 9600 bps, 8N1
+TURNAROUND = 0.001  # the simulator's reply delay (sim --turnaround-ms 1)
+STOP = re.compile(r"^\$1SS?\r$")
+POSITION = re.compile(r"^\$1(6\d?)\r$")
+STATUS = re.compile(r"^\$1\r$")
+
+Row = tuple[float, str, str, str]
+
+
+@dataclass
+class Exchange:
+    """A frame and its reply as the proxy saw them pass."""
+
+    sent: float
+    frame: str
+    reply: str = ""
+    reply_end: float = 0.0
+
+    @property
+    def ideal(self) -> float:
+        """Seconds an ideal line is busy with it: both wire times and the turnaround."""
+        busy = (len(self.frame) + len(self.reply)) * CHAR
+        return busy + (TURNAROUND if self.reply else 0.0)
+
+
+def percentile(values: list[float], q: float) -> float:
+    ordered = sorted(values)
+    return (
+        ordered[min(len(ordered) - 1, round(q * (len(ordered) - 1)))] if ordered else float("nan")
+    )
+
+
+def exchanges(rows: list[Row], line: str) -> list[Exchange]:
+    found: list[Exchange] = []
+    for when, name, way, data in rows:
+        if name != line:
+            continue
+        if way == "h2d":
+            found.append(Exchange(when, data))
+        elif found:
+            found[-1].reply += data
+            found[-1].reply_end = when
+    return found
+
+
+def _ms(value: float) -> float:
+    return round(value * 1000, 3)
+
+
+def analyse_line(
+    rows: list[Row], line: str, start: float, end: float, stops_sent: list[float]
+) -> dict[str, object]:
+    """Line efficiency, simulator lateness, gateway gap and stop latency in [start, end]."""
+    every = exchanges(rows, line)
+    window = [x for x in every if start <= x.sent <= end]
+    answered = [x for x in window if x.reply]
+    late = [x.reply_end - (x.sent + x.ideal) for x in answered]
+    following = {id(a): b for a, b in itertools.pairwise(every)}
+    gaps = [following[id(x)].sent - x.reply_end for x in answered if id(x) in following]
+    latencies, excess, behind = [], [], 0
+    for sent in stops_sent:
+        after = [x for x in every if x.sent >= sent]
+        stop = next((i for i, x in enumerate(after) if STOP.match(x.frame)), None)
+        if stop is None:
+            continue
+        latencies.append(after[stop].sent - sent)
+        behind += stop > 0
+        flight = [x for x in every if x.sent < sent <= x.reply_end]
+        remainder = flight[-1].reply_end - sent if flight else 0.0
+        excess.append(after[stop].sent - sent - remainder)
+    return {
+        "exchanges": len(window),
+        "line_efficiency": round(sum(x.ideal for x in window) / (end - start), 4),
+        "line_efficiency_target": ">= 0.97",
+        "sim_late_ms_mean": _ms(statistics.mean(late)) if late else None,
+        "sim_late_ms_p99": _ms(percentile(late, 0.99)),
+        "sim_late_target_ms": "<= 0.05",
+        "gateway_gap_ms_p50": _ms(percentile(gaps, 0.5)),
+        "gateway_gap_ms_p99": _ms(percentile(gaps, 0.99)),
+        "gateway_gap_target_ms": "<= 0.3 / 1.0",
+        "stops": len(latencies),
+        "stop_latency_ms_p50": _ms(percentile(latencies, 0.5)),
+        "stop_latency_ms_p99": _ms(percentile(latencies, 0.99)),
+        "stop_over_in_flight_ms_p99": _ms(percentile(excess, 0.99)),
+        "stops_behind_another_exchange": behind,
+        "stop_target": "<= in-flight remainder + 3 ms, never behind another exchange",
+    }
+
+
+def analyse_watch(rows: list[Row], line: str, start: float, end: float) -> dict[str, float]:
+    """Position and status reads of body 1 a second in [start, end], answered ones only."""
+    window = [x for x in exchanges(rows, line) if start <= x.sent <= end and x.reply]
+    seconds = end - start
+    positions = sum(1 for x in window if POSITION.match(x.frame))
+    status = sum(1 for x in window if STATUS.match(x.frame))
+    return {
+        "position_reads_per_s": round(positions / seconds, 1),
+        "status_reads_per_s": round(status / seconds, 1),
+        "frames_per_s": round(len(window) / seconds, 1),
+    }
