@@ -34,17 +34,11 @@ import time
 from pathlib import Path
 from typing import Any
 
+# The browser as the tests start it (one definition: tests/browser/chromium.py).
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from tests.browser.chromium import CHROMIUM, CHROMIUM_ARGS
+
 BODIES = [f"{n:X}" for n in range(15)]  # 0-E: 15 controllers, 30 axes
-CHROMIUM = "/usr/bin/chromium"
-CHROMIUM_ARGS = [
-    "--headless",
-    "--no-sandbox",
-    "--disable-gpu",
-    "--disable-background-networking",
-    "--disable-component-update",
-    "--disable-sync",
-    "--no-first-run",
-]
 
 # Injected before the page's own scripts: frame gaps and long tasks, read back at the end.
 PROBE = """
@@ -171,7 +165,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         assert child.stdout is not None
         base = f"http://127.0.0.1:{int(child.stdout.readline())}"
         with sync_playwright() as p:
-            browser = p.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
+            browser = p.chromium.launch(executable_path=str(CHROMIUM), args=CHROMIUM_ARGS)
             page = browser.new_page(viewport={"width": 1280, "height": 800})
             page.add_init_script(PROBE)
             cdp = page.context.new_cdp_session(page)

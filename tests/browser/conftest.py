@@ -31,17 +31,9 @@ from typing import Any
 import pytest
 from playwright.sync_api import Browser, BrowserContext, Page, Playwright, sync_playwright
 
+from tests.browser.chromium import CHROMIUM, CHROMIUM_ARGS
+
 GATEWAY = Path(sys.executable).parent / "rc233-gateway"
-CHROMIUM = Path("/usr/bin/chromium")
-CHROMIUM_ARGS = [
-    "--headless",
-    "--no-sandbox",
-    "--disable-gpu",
-    "--disable-background-networking",
-    "--disable-component-update",
-    "--disable-sync",
-    "--no-first-run",
-]
 INSTALL_HINT = (
     "the browser tests need Debian's chromium at /usr/bin/chromium: "
     "`apt-get update && apt-get install -y chromium` (as root; `make test` does it when it "
