@@ -153,7 +153,10 @@ async def test_a_controller_at_another_baud_hears_noise(wire: Wire) -> None:
 
 
 async def test_a_message_sent_at_another_baud_reaches_the_host_as_noise(wire: Wire) -> None:
-    assert await wire.exchange(b"$1T5\r") == b">"  # §10 T: '$1T' CR after 0.5 s
+    # §10 T: '$1T' CR after 50 s (0.5 s of real time at this scale), long enough for the ES
+    # below to land first on a busy host (after 0.5 s, 5 ms of real time, a slow host saw the
+    # message go out at 9600 before ES1 took effect)
+    assert await wire.exchange(b"$1T500\r") == b">"
     assert await wire.exchange(b"$1ES1\r") == b">"  # from now on the controller talks at 1200
     noise = await wire.delivery(RecordKind.LATER)
     assert noise and noise != b"$1T\r"

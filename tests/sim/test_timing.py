@@ -38,7 +38,8 @@ async def _timed_move(wire: Wire, setup: list[bytes]) -> tuple[float, float]:
         assert await wire.exchange(frame) == b">"
     heard = [r for r in wire.records(RecordKind.HEARD) if r.ref > 0]
     start = heard[-1].time  # the controller acts on a frame when its CR has arrived
-    real_start = time.monotonic()
+    # the host's time of that CR (scale 1), not of this line: a busy host gets here late
+    real_start = time.monotonic() - (wire.loop.now() - start)
     last_moving = start
     while True:
         mark = wire.loop.log.next_seq
