@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import asyncio
 import logging
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -128,7 +129,13 @@ class MotionWatch:
         if flags.command_error and not seen_moving:
             op.errors.add("command_error")
         if self.gateway.state.controller(op.axis.loop, op.axis.body).moving:
-            if not seen_moving:  # queued still, when the read came before the send returned
+            if not seen_moving:
+                if op.state is OperationState.QUEUED:
+                    # the read came before the send returned: the send is done all the same,
+                    # and every client sees each state in order (sent, then moving)
+                    if op.sent is None:
+                        op.sent = time.time()
+                    self._set(op, OperationState.SENT)
                 self._set(op, OperationState.MOVING)
         elif op.ending is None:
             op.ending = asyncio.get_running_loop().create_future()
