@@ -77,34 +77,51 @@ class Rig:
         ]
 
 
+#: Attaches a poller to a scheduler and its state cache (``attach``, or another order).
+WirePoller = Callable[[LoopScheduler, StateCache], Poller]
+
+
+async def start_rig(made: list[Rig], bodies: str, scale: float, wire: WirePoller) -> Rig:
+    """A simulated loop of ``bodies``, a scheduler on it, a state cache and the poller ``wire``
+    attaches, started; kept in ``made`` for ``close_rigs``."""
+    sim = build_loop(list(bodies), clock=SimClock(scale))
+    ports: list[SimPort] = []
+
+    def connect() -> SimPort:
+        ports.append(SimPort(sim))
+        return ports[-1]
+
+    scheduler = LoopScheduler(
+        PipeTransport(connect, url="pipe://sim"), LoopConfig(name=LOOP, time_scale=scale)
+    )
+    state = StateCache()
+    poller = wire(scheduler, state)
+    r = Rig(sim, scheduler, state, poller, ports)
+    made.append(r)
+    await scheduler.start()
+    poller.start()
+    return r
+
+
+async def close_rigs(made: list[Rig]) -> None:
+    for r in made:
+        await r.poller.stop()
+        await r.scheduler.close()
+        r.sim.close()
+
+
 @pytest.fixture
 async def rig() -> AsyncIterator[Callable[..., Rig]]:
     made: list[Rig] = []
 
     async def make(bodies: str = "12", scale: float = 5.0, **config: float) -> Rig:
-        sim = build_loop(list(bodies), clock=SimClock(scale))
-        ports: list[SimPort] = []
+        def wire(scheduler: LoopScheduler, state: StateCache) -> Poller:
+            return attach(scheduler, state, list(bodies), PollConfig(**config))
 
-        def connect() -> SimPort:
-            ports.append(SimPort(sim))
-            return ports[-1]
-
-        scheduler = LoopScheduler(
-            PipeTransport(connect, url="pipe://sim"), LoopConfig(name=LOOP, time_scale=scale)
-        )
-        state = StateCache()
-        poller = attach(scheduler, state, list(bodies), PollConfig(**config))
-        r = Rig(sim, scheduler, state, poller, ports)
-        made.append(r)
-        await scheduler.start()
-        poller.start()
-        return r
+        return await start_rig(made, bodies, scale, wire)
 
     yield make  # type: ignore[misc]
-    for r in made:
-        await r.poller.stop()
-        await r.scheduler.close()
-        r.sim.close()
+    await close_rigs(made)
 
 
 async def move(r: Rig, body: str, motor: int, target: int) -> None:

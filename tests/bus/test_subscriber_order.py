@@ -13,17 +13,12 @@ from itertools import pairwise
 
 import pytest
 
-from gateway.bus.config import LoopConfig
 from gateway.bus.poller import PollConfig, Poller, attach
 from gateway.bus.requests import Priority
 from gateway.bus.scheduler import LoopScheduler
 from gateway.bus.state import ErrorKind, StateCache
 from gateway.protocol.registry import parse
-from gateway.sim.cli import build_loop
-from gateway.sim.clock import SimClock
-from gateway.sim.serve import SimPort
-from gateway.transport.pipe import PipeTransport
-from tests.bus.test_poller import LOOP, Rig
+from tests.bus.test_poller import LOOP, Rig, close_rigs, start_rig
 
 ORDERS = ("cache first", "cache last")
 
@@ -56,29 +51,13 @@ async def rig() -> AsyncIterator[Callable[..., Rig]]:
     made: list[Rig] = []
 
     async def make(order: str, bodies: str = "12", scale: float = 5.0, **config: float) -> Rig:
-        sim = build_loop(list(bodies), clock=SimClock(scale))
-        ports: list[SimPort] = []
+        def wire(scheduler: LoopScheduler, state: StateCache) -> Poller:
+            return _wire(scheduler, state, bodies, order, **config)
 
-        def connect() -> SimPort:
-            ports.append(SimPort(sim))
-            return ports[-1]
-
-        scheduler = LoopScheduler(
-            PipeTransport(connect, url="pipe://sim"), LoopConfig(name=LOOP, time_scale=scale)
-        )
-        state = StateCache()
-        poller = _wire(scheduler, state, bodies, order, **config)
-        r = Rig(sim, scheduler, state, poller, ports)
-        made.append(r)
-        await scheduler.start()
-        poller.start()
-        return r
+        return await start_rig(made, bodies, scale, wire)
 
     yield make  # type: ignore[misc]
-    for r in made:
-        await r.poller.stop()
-        await r.scheduler.close()
-        r.sim.close()
+    await close_rigs(made)
 
 
 @pytest.mark.parametrize("order", ORDERS)
