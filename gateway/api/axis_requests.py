@@ -11,8 +11,8 @@ from typing import Annotated
 
 from pydantic import BaseModel, ConfigDict, Field, Strict
 
-from gateway.bus.state_types import ErrorKind
 from gateway.service.axis_types import Direction, HomeMethod, JogSpeed, StopMode, Unit
+from gateway.service.bus_types import ErrorKind
 
 __all__ = ["AckRequest", "HomeRequest", "JogRequest", "MoveRequest", "StepRequest", "StopRequest"]
 

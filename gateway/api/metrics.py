@@ -30,10 +30,14 @@ from gateway.api.access_log import log_access
 from gateway.api.exposition import Exposition, Histogram
 from gateway.api.metrics_cell import CellMetrics, render_build_and_process
 from gateway.api.security import api_routes
-from gateway.bus.config import LoopConfig
-from gateway.bus.counters import CountersSnapshot
-from gateway.bus.events import BusEvent, EventBus, TransactionDone
-from gateway.bus.lifecycle import LinkState
+from gateway.service.bus_types import (
+    BusEvent,
+    CountersSnapshot,
+    EventBus,
+    LinkState,
+    LoopConfig,
+    TransactionDone,
+)
 from gateway.service.gateway import Gateway
 
 __all__ = [

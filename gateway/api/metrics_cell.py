@@ -23,8 +23,7 @@ from pathlib import Path
 
 from gateway import __version__
 from gateway.api.exposition import Exposition
-from gateway.bus.events import BusEvent, TransactionDone
-from gateway.bus.state_types import ErrorKind
+from gateway.service.bus_types import BusEvent, ErrorKind, TransactionDone
 from gateway.service.events import EventKind, ServiceEvent
 from gateway.service.gateway import Gateway
 from gateway.service.operation_types import FINAL

@@ -35,6 +35,7 @@ from gateway.service.axes import (
     StopResult,
 )
 from gateway.service.axis_speeds import SpeedChange, SpeedView
+from gateway.service.controllers import ControllerService
 from gateway.service.operation_types import OperationState, OperationView
 from gateway.service.operations import Operation, Operations
 from gateway.service.roles import Role
@@ -57,6 +58,11 @@ Timeout = Annotated[
         description="seconds to wait with wait=true (then 202: still running)",
     ),
 ]
+
+
+def _controllers_of(request: Request) -> ControllerService:
+    service: ControllerService = request.app.state.controllers
+    return service
 
 
 def _axes_of(request: Request) -> AxisService:
@@ -281,7 +287,7 @@ lease_routes(
     router,
     "controllers",
     "controller",
-    lambda request, ident: _axes_of(request).gateway.topology.controller(ident).id,
+    lambda request, ident: _controllers_of(request).controller(ident).id,
 )
 
 __all__ += ["LeaseRequest", "LeaseView"]
