@@ -74,8 +74,8 @@ async def serve() -> None:
     from gateway.api.security import AuthConfig
     from gateway.bus.events import ReplyObserved
     from gateway.protocol.registry import parse
-    from gateway.service.gateway import Gateway
-    from gateway.service.simulated import SIM_LOOP, simulated_config
+    from gateway.service.runtime.gateway import Gateway
+    from gateway.service.runtime.simulated import SIM_LOOP, simulated_config
     from gateway.sim.cli import build_loop
     from gateway.sim.clock import SimClock
     from gateway.sim.serve import SimPort

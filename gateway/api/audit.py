@@ -31,7 +31,7 @@ from gateway.api.redaction import redact
 from gateway.api.security import Principal, principal_of, require
 from gateway.errors import InvalidInputError
 from gateway.service.control import ControlChange
-from gateway.service.operation_types import Operation
+from gateway.service.operations.types import Operation
 from gateway.service.roles import Role
 
 __all__ = [

@@ -11,8 +11,8 @@ from typing import Annotated
 
 from pydantic import BaseModel, ConfigDict, Field, Strict
 
-from gateway.service.axis_types import Direction, HomeMethod, JogSpeed, StopMode, Unit
-from gateway.service.bus_types import ErrorKind
+from gateway.service.operations.terms import Direction, HomeMethod, JogSpeed, StopMode, Unit
+from gateway.service.runtime.bus_types import ErrorKind
 
 __all__ = ["AckRequest", "HomeRequest", "JogRequest", "MoveRequest", "StepRequest", "StopRequest"]
 

@@ -16,7 +16,7 @@ from pydantic import BaseModel
 
 from gateway.api.metrics import CONTENT_TYPE, HttpMetricsMiddleware, Metrics, MetricsSource, WsStats
 from gateway.api.problems import PROBLEM_MEDIA_TYPE, Problem, problem_response, problem_type
-from gateway.service.bus_types import LinkState
+from gateway.service.runtime.bus_types import LinkState
 
 __all__ = ["Health", "Readiness", "install_operations", "router"]
 

@@ -30,7 +30,7 @@ from gateway.api.access_log import log_access
 from gateway.api.exposition import Exposition, Histogram
 from gateway.api.metrics_cell import CellMetrics, render_build_and_process
 from gateway.api.security import api_routes
-from gateway.service.bus_types import (
+from gateway.service.runtime.bus_types import (
     BusEvent,
     CountersSnapshot,
     EventBus,
@@ -38,7 +38,7 @@ from gateway.service.bus_types import (
     LoopConfig,
     TransactionDone,
 )
-from gateway.service.gateway import Gateway
+from gateway.service.runtime.gateway import Gateway
 
 __all__ = [
     "CONTENT_TYPE",

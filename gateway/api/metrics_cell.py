@@ -23,10 +23,10 @@ from pathlib import Path
 
 from gateway import __version__
 from gateway.api.exposition import Exposition
-from gateway.service.bus_types import BusEvent, ErrorKind, TransactionDone
 from gateway.service.events import EventKind, ServiceEvent
-from gateway.service.gateway import Gateway
-from gateway.service.operation_types import FINAL
+from gateway.service.operations.types import FINAL
+from gateway.service.runtime.bus_types import BusEvent, ErrorKind, TransactionDone
+from gateway.service.runtime.gateway import Gateway
 
 __all__ = ["CellMetrics", "render_build_and_process"]
 

@@ -50,7 +50,7 @@ from gateway.errors import (
     ProgramError,
     ProtocolError,
 )
-from gateway.service.bus_types import DeadlineExpired, LoopDown, TransactionError
+from gateway.service.runtime.bus_types import DeadlineExpired, LoopDown, TransactionError
 
 __all__ = [
     "PROBLEM_MEDIA_TYPE",

@@ -30,14 +30,14 @@ from gateway.api.motion_problems import MOTION_PROBLEM_RESPONSES, motion_problem
 from gateway.api.problems import PROBLEM_RESPONSES
 from gateway.api.routes_leases import LeaseRequest, LeaseView, lease_routes
 from gateway.api.security import Principal, require
-from gateway.service.axes import (
+from gateway.service.axes.service import (
     AxisService,
     StopResult,
 )
-from gateway.service.axis_speeds import SpeedChange, SpeedView
-from gateway.service.controllers import ControllerService
-from gateway.service.operation_types import OperationState, OperationView
-from gateway.service.operations import Operation, Operations
+from gateway.service.axes.speeds import SpeedChange, SpeedView
+from gateway.service.controllers.service import ControllerService
+from gateway.service.operations.registry import Operation, Operations
+from gateway.service.operations.types import OperationState, OperationView
 from gateway.service.roles import Role
 from gateway.service.views import AxisView
 

@@ -30,7 +30,7 @@ from gateway.api.routes_programs import router as programs_router
 from gateway.protocol.models import Command
 from gateway.protocol.registry import Context, command_union
 from gateway.service.commands import ROLE_RULE, required_role
-from gateway.service.ctl_models import (
+from gateway.service.controllers.models import (
     BitView,
     EepromRequest,
     IoView,
@@ -44,7 +44,7 @@ from gateway.service.ctl_models import (
     SensorLogicView,
     SensorLogicWrite,
 )
-from gateway.service.ctl_replies import CommandResponse
+from gateway.service.controllers.replies import CommandResponse
 from gateway.service.stops import ControllerStop
 from gateway.service.views import ControllerView
 

@@ -16,9 +16,9 @@ from gateway.api.axis_requests import StopRequest
 from gateway.api.ctl_deps import Admin, Operator, Service, Stops, Viewer, note_sent
 from gateway.api.problems import PROBLEM_RESPONSES
 from gateway.errors import NotFoundError
-from gateway.service.controllers import TraceSettings, TraceView
-from gateway.service.ctl_models import RawRequest
-from gateway.service.ctl_replies import CommandResponse
+from gateway.service.controllers.models import RawRequest
+from gateway.service.controllers.replies import CommandResponse
+from gateway.service.controllers.service import TraceSettings, TraceView
 from gateway.service.stops import LoopStop
 from gateway.service.views import LoopView
 

@@ -14,7 +14,7 @@ from fastapi import APIRouter, Path, Request
 
 from gateway.api.ctl_deps import Admin, Id, Operator, Service, note_sent
 from gateway.api.problems import PROBLEM_RESPONSES
-from gateway.service.ctl_models import (
+from gateway.service.controllers.models import (
     Autostart,
     BufferWrite,
     CounterWrite,
@@ -26,7 +26,7 @@ from gateway.service.ctl_models import (
     ProgramText,
     ProgramWrite,
 )
-from gateway.service.ctl_replies import CommandResponse
+from gateway.service.controllers.replies import CommandResponse
 
 __all__ = ["router"]
 

@@ -16,8 +16,8 @@ from gateway.api.app import create_app
 from gateway.api.asyncapi import asyncapi_document
 from gateway.api.security import AuthConfig, TokenBook, hash_token, new_token
 from gateway.api.ws_messages import ws_schema
-from gateway.service.gateway import Gateway
-from gateway.service.simulated import SIM_LOOP, simulated_config
+from gateway.service.runtime.gateway import Gateway
+from gateway.service.runtime.simulated import SIM_LOOP, simulated_config
 from gateway.transport.pipe import PipeTransport
 
 __all__ = ["add_document_parsers", "documents", "render"]

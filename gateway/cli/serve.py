@@ -37,9 +37,9 @@ from gateway.mqtt.commands import DeviceCommands
 from gateway.mqtt.edge_node import EdgeNode
 from gateway.protocol.framing import Series
 from gateway.service.config import ConfigError, GatewayConfig
-from gateway.service.gateway import Gateway
-from gateway.service.simulated import SIM_LOOP, simulated_config
-from gateway.service.state_log import StateLog
+from gateway.service.runtime.gateway import Gateway
+from gateway.service.runtime.simulated import SIM_LOOP, simulated_config
+from gateway.service.runtime.state_log import StateLog
 from gateway.sim.cli import (
     add_clock_option,
     build_loop,

@@ -32,10 +32,10 @@ import aiomqtt
 from gateway.mqtt.commands import DeviceCommands
 from gateway.mqtt.metric_table import MetricTable, Values, axis_label, changed, device_id, millis
 from gateway.mqtt.sparkplug import Message, Metric, Value, decode_commands, encode, topic
-from gateway.service.bus_types import BusEvent, Change, TransactionDone
 from gateway.service.config import MqttSettings
 from gateway.service.events import EventKind, ServiceEvent
-from gateway.service.gateway import Gateway
+from gateway.service.runtime.bus_types import BusEvent, Change, TransactionDone
+from gateway.service.runtime.gateway import Gateway
 
 __all__ = ["EdgeNode"]
 

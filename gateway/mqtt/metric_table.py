@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 from gateway import __version__
 from gateway.mqtt.sparkplug import DataType, Metric, Value
-from gateway.service.bus_types import AxisState, ErrorKind, StateCache
+from gateway.service.runtime.bus_types import AxisState, ErrorKind, StateCache
 from gateway.service.topology import AxisRef, ControllerRef, Topology
 
 __all__ = ["AXIS_ERROR_KINDS", "CONTROLLER_ERROR_KINDS", "MetricTable", "device_id", "millis"]

@@ -40,7 +40,7 @@ from gateway.errors import ConflictError, DeviceError, InvalidInputError
 from gateway.protocol.framing import BAUD_RATES
 from gateway.protocol.registry import parse
 from gateway.protocol.reply_values import ProgramState
-from gateway.service.gateway import Gateway
+from gateway.service.runtime.gateway import Gateway
 from gateway.service.topology import ControllerRef
 
 __all__ = ["BAUD_CODES", "BaudChange", "BaudChanger", "ControllerBaud"]

@@ -32,9 +32,9 @@ from gateway.protocol.models import Command
 from gateway.protocol.registry import parse
 from gateway.protocol.reply_values import ProgramState
 from gateway.protocol.spec import Effect
-from gateway.service.gateway import Gateway
+from gateway.service.axes.soft_limits import SoftLimits
 from gateway.service.roles import Role
-from gateway.service.soft_limits import SoftLimits
+from gateway.service.runtime.gateway import Gateway
 from gateway.service.topology import ControllerRef
 
 __all__ = [

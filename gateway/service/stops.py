@@ -21,9 +21,9 @@ from typing import Protocol
 from pydantic import BaseModel, Field
 
 from gateway.bus.requests import BusError, LoopDown, Outcome
-from gateway.service.axis_types import StopMode
-from gateway.service.gateway import Gateway
-from gateway.service.operation_types import Operation, frames_of
+from gateway.service.operations.terms import StopMode
+from gateway.service.operations.types import Operation, frames_of
+from gateway.service.runtime.gateway import Gateway
 from gateway.service.topology import ControllerRef
 
 __all__ = ["ControllerStop", "LoopStop", "StopAll"]

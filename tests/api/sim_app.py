@@ -28,11 +28,11 @@ from gateway.bus.state_types import ControllerState
 from gateway.cli.serve import sim_line
 from gateway.service.config import GatewayConfig
 from gateway.service.events import ServiceEvent
-from gateway.service.gateway import Gateway
 from gateway.service.leases import Leases
-from gateway.service.operations import Operations
+from gateway.service.operations.registry import Operations
 from gateway.service.roles import Role
-from gateway.service.simulated import SIM_LOOP, simulated_config
+from gateway.service.runtime.gateway import Gateway
+from gateway.service.runtime.simulated import SIM_LOOP, simulated_config
 from gateway.sim.cli import build_loop
 from gateway.sim.clock import RecordKind, SimClock
 from gateway.sim.loop import SimLoop

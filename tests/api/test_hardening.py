@@ -10,9 +10,9 @@ import pytest
 
 from gateway.api.app import create_app
 from gateway.api.security import AuthConfig, TokenBook, TokenEntry, hash_token
-from gateway.service.gateway import Gateway
 from gateway.service.roles import Role
-from gateway.service.simulated import SIM_LOOP, simulated_config
+from gateway.service.runtime.gateway import Gateway
+from gateway.service.runtime.simulated import SIM_LOOP, simulated_config
 from gateway.transport.pipe import PipeTransport
 from tests.api.sim_app import Api, auth, running_app
 

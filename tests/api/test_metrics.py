@@ -21,8 +21,8 @@ from gateway.bus.events import EventBus, TransactionDone
 from gateway.bus.lifecycle import LinkState
 from gateway.bus.requests import Outcome, Priority
 from gateway.protocol.registry import parse
-from gateway.service.gateway import Gateway
-from gateway.service.simulated import SIM_LOOP, simulated_config
+from gateway.service.runtime.gateway import Gateway
+from gateway.service.runtime.simulated import SIM_LOOP, simulated_config
 from gateway.sim.cli import build_loop
 from gateway.sim.clock import SimClock
 from gateway.sim.serve import SimPort

@@ -14,7 +14,7 @@ import contextlib
 from gateway.api.metrics import Metrics
 from gateway.protocol.registry import parse
 from gateway.service.config import parse_config
-from gateway.service.gateway import Gateway
+from gateway.service.runtime.gateway import Gateway
 from gateway.sim.cli import build_loop
 from gateway.sim.clock import SimClock
 from gateway.sim.serve import serve_tcp

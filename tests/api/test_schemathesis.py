@@ -29,8 +29,8 @@ from gateway.api.app import create_app
 from gateway.api.security import AuthConfig
 from gateway.cli.documents import documents
 from gateway.cli.serve import sim_line
-from gateway.service.gateway import Gateway
-from gateway.service.simulated import SIM_LOOP, simulated_config
+from gateway.service.runtime.gateway import Gateway
+from gateway.service.runtime.simulated import SIM_LOOP, simulated_config
 from gateway.sim.cli import build_loop
 from gateway.sim.clock import SimClock
 

@@ -16,7 +16,7 @@ import pytest
 from gateway.api.app import create_app
 from gateway.api.security import AuthConfig
 from gateway.service.config import load_config
-from gateway.service.gateway import Gateway
+from gateway.service.runtime.gateway import Gateway
 from tests.sim_process import sim_on_pty
 
 SCALE = 20.0

@@ -10,8 +10,8 @@ from typing import Any
 
 from gateway.mqtt.edge_node import EdgeNode
 from gateway.service.config import MqttSettings
-from gateway.service.gateway import Gateway
-from gateway.service.simulated import SIM_LOOP, simulated_config
+from gateway.service.runtime.gateway import Gateway
+from gateway.service.runtime.simulated import SIM_LOOP, simulated_config
 from gateway.sim.cli import build_loop
 from gateway.sim.serve import SimPort
 from gateway.transport.pipe import PipeTransport

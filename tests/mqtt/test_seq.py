@@ -9,8 +9,8 @@ from __future__ import annotations
 
 from gateway.bus.events import ReplyObserved
 from gateway.protocol.registry import parse
-from gateway.service.gateway import Gateway
-from gateway.service.simulated import SIM_LOOP
+from gateway.service.runtime.gateway import Gateway
+from gateway.service.runtime.simulated import SIM_LOOP
 from tests.mqtt.broker import Broker, Central, seqs_in_order
 from tests.mqtt.in_process import edge_node
 

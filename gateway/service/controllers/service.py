@@ -29,11 +29,11 @@ from gateway.protocol.models import Command
 from gateway.protocol.registry import parse
 from gateway.service.commands import CommandRunner, LeaseCheck
 from gateway.service.control import ControlView
-from gateway.service.ctl_models import RawRequest
-from gateway.service.ctl_replies import CommandResponse, response_of
-from gateway.service.ctl_resources import ControllerResources
-from gateway.service.gateway import Gateway
-from gateway.service.programs import ProgramService
+from gateway.service.controllers.models import RawRequest
+from gateway.service.controllers.programs import ProgramService
+from gateway.service.controllers.replies import CommandResponse, response_of
+from gateway.service.controllers.resources import ControllerResources
+from gateway.service.runtime.gateway import Gateway
 from gateway.service.topology import ControllerRef
 from gateway.service.views import ControllerView, LoopView, controller_view, loop_view, wall_time
 

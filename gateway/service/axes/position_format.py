@@ -15,7 +15,7 @@ from gateway.errors import InvalidInputError
 from gateway.protocol.models import Command
 from gateway.protocol.params import PositionFormat
 from gateway.protocol.registry import parse
-from gateway.service.gateway import Gateway
+from gateway.service.runtime.gateway import Gateway
 from gateway.service.topology import AxisRef
 
 __all__ = ["PositionFormats", "check_target", "position_data"]

@@ -26,7 +26,7 @@ from gateway.protocol.reply_values import (
     SensorLogic,
 )
 from gateway.service.commands import CommandRunner, require_done
-from gateway.service.ctl_models import (
+from gateway.service.controllers.models import (
     BitView,
     EepromArea,
     IoView,
@@ -38,7 +38,7 @@ from gateway.service.ctl_models import (
     SensorLogicView,
     SensorLogicWrite,
 )
-from gateway.service.ctl_replies import CommandResponse, port_json, response_of
+from gateway.service.controllers.replies import CommandResponse, port_json, response_of
 from gateway.service.topology import ControllerRef
 
 __all__ = ["EEPROM_LOAD", "EEPROM_SAVE", "ControllerResources", "build", "value_of"]

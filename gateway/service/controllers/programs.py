@@ -16,15 +16,15 @@ from gateway.protocol.program import Program, parse_program
 from gateway.protocol.registry import parse
 from gateway.protocol.reply_values import PortByte, ProgramState
 from gateway.service.commands import CommandRunner, require_done
-from gateway.service.ctl_models import (
+from gateway.service.controllers.models import (
     Autostart,
     PortView,
     ProgramData,
     ProgramStatus,
     ProgramText,
 )
-from gateway.service.ctl_replies import CommandResponse, port_json, response_of
-from gateway.service.ctl_resources import build, value_of
+from gateway.service.controllers.replies import CommandResponse, port_json, response_of
+from gateway.service.controllers.resources import build, value_of
 from gateway.service.topology import ControllerRef
 
 __all__ = ["BUFFERS", "COUNTERS", "ProgramService"]

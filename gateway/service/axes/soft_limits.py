@@ -40,8 +40,8 @@ from gateway.protocol.models import Command
 from gateway.protocol.params import PositionFormat
 from gateway.protocol.registry import parse
 from gateway.protocol.spec import Effect
-from gateway.service.gateway import Gateway
-from gateway.service.position_format import PositionFormats, check_target, position_data
+from gateway.service.axes.position_format import PositionFormats, check_target, position_data
+from gateway.service.runtime.gateway import Gateway
 from gateway.service.topology import POSITION_MAX, POSITION_MIN, AxisRef, ControllerRef
 
 __all__ = ["Guarded", "SoftLimits", "has_soft_limits", "jog_limit"]

@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 from gateway.bus.counters import CountersSnapshot
 from gateway.bus.events import BusEvent, LinkDown, LinkUp, TransactionDone
 from gateway.bus.state_types import Change
-from gateway.service.gateway import Gateway
+from gateway.service.runtime.gateway import Gateway
 
 __all__ = ["FAULT_COUNTERS", "StateLog"]
 

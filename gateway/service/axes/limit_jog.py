@@ -24,9 +24,9 @@ from gateway.errors import DeviceError, InvalidInputError
 from gateway.protocol.models import Command
 from gateway.protocol.params import PositionFormat
 from gateway.protocol.registry import parse
-from gateway.service.axis_types import Direction, JogSpeed
-from gateway.service.operations import Operation
-from gateway.service.position_format import check_target, position_data
+from gateway.service.axes.position_format import check_target, position_data
+from gateway.service.operations.registry import Operation
+from gateway.service.operations.terms import Direction, JogSpeed
 from gateway.service.topology import AxisRef
 
 __all__ = ["LimitJogs"]

@@ -35,7 +35,10 @@ from gateway.protocol.models import Command
 from gateway.protocol.params import UNSIGNED_MAX
 from gateway.protocol.registry import parse
 from gateway.protocol.speeds import SpeedSettings
-from gateway.service.axis_speeds import (
+from gateway.service.axes.limit_jog import LimitJogs
+from gateway.service.axes.position_format import PositionFormats, check_target, position_data
+from gateway.service.axes.soft_limits import has_soft_limits, jog_limit
+from gateway.service.axes.speeds import (
     QUERIES,
     QUERIES_WHILE_MOVING,
     SpeedChange,
@@ -44,7 +47,9 @@ from gateway.service.axis_speeds import (
     speed_view,
     update_commands,
 )
-from gateway.service.axis_types import (
+from gateway.service.leases import Leases
+from gateway.service.operations.registry import Operation, Operations
+from gateway.service.operations.terms import (
     Direction,
     HomeMethod,
     JogSpeed,
@@ -52,13 +57,8 @@ from gateway.service.axis_types import (
     StopResult,
     Unit,
 )
-from gateway.service.gateway import Gateway
-from gateway.service.leases import Leases
-from gateway.service.limit_jog import LimitJogs
-from gateway.service.operation_types import frames_of
-from gateway.service.operations import Operation, Operations
-from gateway.service.position_format import PositionFormats, check_target, position_data
-from gateway.service.soft_limits import has_soft_limits, jog_limit
+from gateway.service.operations.types import frames_of
+from gateway.service.runtime.gateway import Gateway
 from gateway.service.topology import AxisRef
 from gateway.service.views import AxisView, axis_view
 

@@ -22,9 +22,8 @@ from gateway.bus.requests import LoopDown, Outcome, ReplyKind, TransactionResult
 from gateway.errors import ConflictError, DeviceError, NotFoundError
 from gateway.protocol.models import Command
 from gateway.service.events import EventKind, ServiceEvent
-from gateway.service.gateway import Gateway
-from gateway.service.motion_watch import MotionWatch
-from gateway.service.operation_types import (
+from gateway.service.operations.motion_watch import MotionWatch
+from gateway.service.operations.types import (
     FINAL,
     Operation,
     OperationError,
@@ -32,6 +31,7 @@ from gateway.service.operation_types import (
     OperationView,
     frames_of,
 )
+from gateway.service.runtime.gateway import Gateway
 from gateway.service.topology import AxisRef
 
 __all__ = ["Operation", "OperationError", "OperationState", "OperationView", "Operations"]

@@ -31,8 +31,8 @@ from gateway.bus.state_types import Change
 from gateway.protocol.registry import parse
 from gateway.protocol.reply_values import StatusFlags
 from gateway.protocol.spec import Effect
-from gateway.service.gateway import Gateway
-from gateway.service.operation_types import FINAL, Operation, OperationError, OperationState
+from gateway.service.operations.types import FINAL, Operation, OperationError, OperationState
+from gateway.service.runtime.gateway import Gateway
 
 __all__ = ["FINAL_READ_WAIT", "READ_BACK_HOLD", "MotionWatch"]
 
