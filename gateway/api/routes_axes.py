@@ -18,23 +18,25 @@ from fastapi import APIRouter, Body, Depends, Path, Query, Request, Response
 from starlette.routing import NoMatchFound
 
 from gateway.api.audit import audit_note
-from gateway.api.axis_requests import (
+from gateway.api.bodies import (
     AckRequest,
     HomeRequest,
     JogRequest,
+    LeaseRequest,
     MoveRequest,
+    SpeedChange,
     StepRequest,
     StopRequest,
 )
 from gateway.api.motion_problems import MOTION_PROBLEM_RESPONSES, motion_problem
 from gateway.api.problems import PROBLEM_RESPONSES
-from gateway.api.routes_leases import LeaseRequest, LeaseView, lease_routes
+from gateway.api.routes_leases import LeaseView, lease_routes
 from gateway.api.security import Principal, require
 from gateway.service.axes.service import (
     AxisService,
     StopResult,
 )
-from gateway.service.axes.speeds import SpeedChange, SpeedView
+from gateway.service.axes.speeds import SpeedView
 from gateway.service.controllers.service import ControllerService
 from gateway.service.operations.registry import Operation, Operations
 from gateway.service.operations.types import OperationState, OperationView
@@ -267,7 +269,7 @@ async def put_speed(
     """Set speed data (left-out fields keep their value) and read them back. Refused before
     sending: ranges, and the S-curve rule (OH - OL) / (2 x (200 - OC)) x OC <= 4,095,
     <= 16,383 - OH, <= 16,383 - OL (§7-1). OX is shared by both motors."""
-    view = await axes.set_speed(id, body, holder=principal.name)
+    view = await axes.set_speed(id, body.model_dump(exclude_none=True), holder=principal.name)
     audit_note(request, bytes_sent=view.frames, result=view.model_dump(mode="json"))
     return view
 

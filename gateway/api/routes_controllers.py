@@ -14,7 +14,16 @@ from typing import TYPE_CHECKING, Annotated, Literal
 from fastapi import APIRouter, Body, Path, Query, Request
 
 from gateway.api.audit import audit_note
-from gateway.api.axis_requests import StopRequest
+from gateway.api.bodies import (
+    EepromRequest,
+    ModeWrite,
+    OutputBitWrite,
+    OutputPulse,
+    OutputsWrite,
+    PositionWrite,
+    SensorLogicWrite,
+    StopRequest,
+)
 from gateway.api.ctl_deps import (
     Admin,
     Id,
@@ -30,21 +39,14 @@ from gateway.api.routes_programs import router as programs_router
 from gateway.protocol.models import Command
 from gateway.protocol.registry import Context, command_union
 from gateway.service.commands import ROLE_RULE, required_role
-from gateway.service.controllers.models import (
+from gateway.service.controllers.replies import CommandResponse
+from gateway.service.controllers.views import (
     BitView,
-    EepromRequest,
     IoView,
     ModeView,
-    ModeWrite,
-    OutputBitWrite,
-    OutputPulse,
-    OutputsWrite,
     PositionEntry,
-    PositionWrite,
     SensorLogicView,
-    SensorLogicWrite,
 )
-from gateway.service.controllers.replies import CommandResponse
 from gateway.service.stops import ControllerStop
 from gateway.service.views import ControllerView
 
@@ -153,7 +155,9 @@ async def put_position(
 ) -> CommandResponse:
     """Set entry n: ``A{pn}{pp}``, or ``A{pn}`` (the current position) with ``current``."""
     ref = service.controller(id)
-    response = await service.resources.set_position(ref, n, body, holder=who.name)
+    response = await service.resources.set_position(
+        ref, n, body.position, current=body.current, motor=body.motor, holder=who.name
+    )
     return note_sent(request, response)
 
 
@@ -184,7 +188,9 @@ async def put_outputs(
 ) -> CommandResponse:
     """All general outputs (``D{du}{dl}``), with CLR1/CLR2 (``DA``, modes 0 and 1)."""
     ref = service.controller(id)
-    return note_sent(request, await service.resources.set_outputs(ref, body, holder=who.name))
+    clr = None if body.clr1 is None or body.clr2 is None else (body.clr1, body.clr2)
+    response = await service.resources.set_outputs(ref, body.value, clr, holder=who.name)
+    return note_sent(request, response)
 
 
 @router.put("/controllers/{id}/io/outputs/{bit}", response_model=CommandResponse)
@@ -232,7 +238,8 @@ async def put_sensor_logic(
 ) -> CommandResponse:
     """Set the sensor input logic of a motor (``EA{du}{dl}``; the EMS bit is common)."""
     ref = service.controller(id)
-    response = await service.resources.set_sensor_logic(ref, motor, body, holder=who.name)
+    logic = body.logic()
+    response = await service.resources.set_sensor_logic(ref, motor, logic, holder=who.name)
     return note_sent(request, response)
 
 

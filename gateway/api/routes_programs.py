@@ -12,21 +12,23 @@ from typing import Annotated, Literal
 
 from fastapi import APIRouter, Path, Request
 
-from gateway.api.ctl_deps import Admin, Id, Operator, Service, note_sent
-from gateway.api.problems import PROBLEM_RESPONSES
-from gateway.service.controllers.models import (
+from gateway.api.bodies import (
     Autostart,
     BufferWrite,
     CounterWrite,
-    ProgramCheck,
-    ProgramData,
     ProgramRun,
-    ProgramStatus,
     ProgramStop,
-    ProgramText,
     ProgramWrite,
 )
+from gateway.api.ctl_deps import Admin, Id, Operator, Service, note_sent
+from gateway.api.problems import PROBLEM_RESPONSES
 from gateway.service.controllers.replies import CommandResponse
+from gateway.service.controllers.views import (
+    ProgramCheck,
+    ProgramData,
+    ProgramStatus,
+    ProgramText,
+)
 
 __all__ = ["router"]
 
@@ -127,7 +129,7 @@ async def put_counter(
 @router.get("/controllers/{id}/program/autostart", response_model=Autostart)
 async def get_autostart(id: Id, service: Service, _: Operator) -> Autostart:
     """Whether the program starts at power-on (``GA``)."""
-    return await service.programs.autostart(service.controller(id))
+    return Autostart(enabled=await service.programs.autostart(service.controller(id)))
 
 
 @router.put("/controllers/{id}/program/autostart", response_model=CommandResponse)

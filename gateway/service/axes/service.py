@@ -25,6 +25,7 @@ stop            ``S`` immediate, ``SS`` decelerate to Low speed then stop (§10 
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
 
 from gateway.bus.requests import TransactionResult
@@ -41,7 +42,6 @@ from gateway.service.axes.soft_limits import has_soft_limits, jog_limit
 from gateway.service.axes.speeds import (
     QUERIES,
     QUERIES_WHILE_MOVING,
-    SpeedChange,
     SpeedView,
     settings_from,
     speed_view,
@@ -275,8 +275,9 @@ class AxisService:
         self._speeds[ref.id] = settings
         return speed_view(ref.id, settings, oc_cached=moving)
 
-    async def set_speed(self, ident: str, change: SpeedChange, *, holder: str) -> SpeedView:
-        """Set speed data after checking ranges and the S-curve rule (§7-1), then read back."""
+    async def set_speed(self, ident: str, change: Mapping[str, int], *, holder: str) -> SpeedView:
+        """Set the speed data given (``oh``, ``ol``, ``os``, ``oc``, ``ox``) after checking
+        ranges and the S-curve rule (§7-1), then read them back."""
         ref = self.ref(ident)
         self._may_act(ref, holder, what="change the speed of")
         current = await self.speed(ref.id)

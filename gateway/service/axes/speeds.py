@@ -16,20 +16,15 @@ read the result back form one transaction, so nothing else runs between them.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, Field
 
 from gateway.bus.requests import ReplyKind, TransactionResult
 from gateway.errors import ConflictError, DeviceError, InvalidInputError
 from gateway.protocol.models import Command
 from gateway.protocol.registry import parse
 from gateway.protocol.speeds import (
-    OC_MAX,
-    OS_MAX,
-    OX_MAX,
-    OX_MIN,
-    SPEED_DATA_MAX,
     SpeedSettings,
     speed_constraint_violation,
 )
@@ -37,7 +32,6 @@ from gateway.protocol.speeds import (
 __all__ = [
     "QUERIES",
     "QUERIES_WHILE_MOVING",
-    "SpeedChange",
     "SpeedView",
     "settings_from",
     "speed_view",
@@ -73,20 +67,6 @@ class SpeedView(BaseModel):
     )
     frames: list[str] = Field(
         default_factory=list, description="the setting frames a PUT sent (without the CR)"
-    )
-
-
-class SpeedChange(BaseModel):
-    """New speed data; the fields left out keep their value."""
-
-    model_config = ConfigDict(extra="forbid", strict=True)
-
-    oh: int | None = Field(None, ge=1, le=SPEED_DATA_MAX, description="High speed data (§10 OH)")
-    ol: int | None = Field(None, ge=1, le=SPEED_DATA_MAX, description="Low speed data (§10 OL)")
-    os: int | None = Field(None, ge=1, le=OS_MAX, description="acceleration data (§10 OS)")
-    oc: int | None = Field(None, ge=0, le=OC_MAX, description="S-curve rate % (§10 OC)")
-    ox: int | None = Field(
-        None, ge=OX_MIN, le=OX_MAX, description="frequency multiplier data (§10 OX), both motors"
     )
 
 
@@ -141,14 +121,14 @@ def settings_from(
 
 
 def update_commands(
-    current: SpeedSettings, change: SpeedChange
+    current: SpeedSettings, given: Mapping[str, int]
 ) -> tuple[SpeedSettings, list[Command]]:
-    """The settings after ``change`` and the set commands that get there, in a safe order.
+    """The settings after the ``given`` speed data (``oh``, ``ol``, ``os``, ``oc``, ``ox``;
+    the others keep their value) and the set commands that get there, in a safe order.
 
     ``InvalidInputError`` naming the field and the rule when the result breaks the S-curve
     inequality (§7-1, §10 OC/OH/OL).
     """
-    given = change.model_dump(exclude_none=True)
     if not given:
         raise InvalidInputError(
             "no speed data given", field="body", rule="give at least one of oh, ol, os, oc, ox"

@@ -16,15 +16,14 @@ from gateway.protocol.program import Program, parse_program
 from gateway.protocol.registry import parse
 from gateway.protocol.reply_values import PortByte, ProgramState
 from gateway.service.commands import CommandRunner, require_done
-from gateway.service.controllers.models import (
-    Autostart,
+from gateway.service.controllers.replies import CommandResponse, port_json, response_of
+from gateway.service.controllers.resources import build, value_of
+from gateway.service.controllers.views import (
     PortView,
     ProgramData,
     ProgramStatus,
     ProgramText,
 )
-from gateway.service.controllers.replies import CommandResponse, port_json, response_of
-from gateway.service.controllers.resources import build, value_of
 from gateway.service.topology import ControllerRef
 
 __all__ = ["BUFFERS", "COUNTERS", "ProgramService"]
@@ -165,10 +164,10 @@ class ProgramService:
         result = await self.runner.run(ref, command, holder=holder)
         return response_of(ref, require_done(ref, result))
 
-    async def autostart(self, ref: ControllerRef) -> Autostart:
+    async def autostart(self, ref: ControllerRef) -> bool:
         """``GA``: whether the program starts at power-on."""
         value = value_of(ref, await self.runner.run(ref, parse("GA"), holder=""))
-        return Autostart(enabled=bool(value))
+        return bool(value)
 
     async def set_autostart(
         self, ref: ControllerRef, enabled: bool, *, holder: str
