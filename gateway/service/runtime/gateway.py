@@ -45,17 +45,11 @@ DRAIN_SECONDS = 5.0
 
 def loop_config(settings: LoopSettings, ref: LoopRef, time_scale: float) -> LoopConfig:
     """The scheduler's configuration of one loop."""
-    t = settings.timeouts
     return LoopConfig(
         name=settings.name,
         baud=settings.baud,
         time_scale=time_scale,
-        turnaround=t.turnaround,
-        host_latency=t.host_latency,
-        nak_retries=t.nak_retries,
-        resend_retries=t.resend_retries,
-        timeouts_to_down=t.timeouts_to_down,
-        eeprom_write_hold=t.eeprom_write_hold,
+        **settings.timeouts.model_dump(),  # TimeoutSettings' fields are LoopConfig's
         sum_at_connect=settings.sum_at_connect,
         series=MappingProxyType(
             {c.body: c.series for c in ref.controllers if c.series is not Series.DOLLAR}
@@ -65,13 +59,7 @@ def loop_config(settings: LoopSettings, ref: LoopRef, time_scale: float) -> Loop
 
 def poll_config(settings: LoopSettings) -> PollConfig:
     """The poller's periods of one loop."""
-    p = settings.poll
-    return PollConfig(
-        moving_period=p.moving_period,
-        idle_period=p.idle_period,
-        sensor_period=p.sensor_period,
-        condition_period=p.condition_period,
-    )
+    return PollConfig(**settings.poll.model_dump())  # PollSettings' fields are PollConfig's
 
 
 class Gateway:
