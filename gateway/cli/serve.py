@@ -54,9 +54,10 @@ from gateway.sim.loop import SimLoop
 from gateway.sim.scene import SceneError, load_scene
 from gateway.sim.serve import SimPort
 from gateway.transport.base import Transport
+from gateway.transport.factory import open_transport
 from gateway.transport.pipe import PipeTransport
 
-__all__ = ["add_serve_parser"]
+__all__ = ["add_serve_parser", "open_lines", "sim_line"]
 
 log = logging.getLogger("gateway")
 
@@ -166,6 +167,12 @@ def _simulated(
     return config, sims, transports
 
 
+def open_lines(config: GatewayConfig) -> dict[str, Transport]:
+    """The transport of every loop of ``config``: its ``port`` at its ``baud`` (not opened
+    yet: each loop's scheduler opens it, and opens it again after a loss)."""
+    return {loop.name: open_transport(loop.port, loop.baud) for loop in config.loops}
+
+
 def sim_line(sim: SimLoop) -> PipeTransport:
     """The in-process line to ``sim``: opened at another rate (``POST /loops/{loop}/baud``),
     it sets the simulated line's rate, the host's UART, so controllers at another rate hear
@@ -229,6 +236,8 @@ async def serve(args: argparse.Namespace) -> int:
     if args.simulate:
         config, sims, transports = _simulated(args, config)
     assert config is not None
+    if not args.simulate:
+        transports = open_lines(config)
     auth = _auth(args, config)
     gateway = Gateway(config, transports=transports, time_scale=args.time_scale)
     StateLog(gateway).start()

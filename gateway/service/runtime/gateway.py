@@ -5,9 +5,9 @@
 to it fail with ``LoopDown`` meanwhile) and starts polling; ``await close()`` stops accepting,
 lets the transaction in flight on each loop finish and closes the ports.
 
-A loop's port is ``open_transport(port, baud)`` unless the caller hands over a transport for
-it (``transports``): that is how ``rc233-gateway serve --simulate`` puts the in-process
-simulator behind a loop without this layer importing the simulator.
+The transports come from whoever owns the process, one per loop (``transports``): the command
+line opens the configured ports (``gateway.cli.serve.open_lines``) or puts the in-process
+simulator behind a loop; this layer never opens a port of its own choosing.
 """
 
 from __future__ import annotations
@@ -33,7 +33,6 @@ from gateway.service.events import EventKind, ServiceEvent, ServiceEvents
 from gateway.service.runtime.key_switch import KeySwitchReader
 from gateway.service.topology import LoopRef, Topology
 from gateway.transport.base import Transport
-from gateway.transport.factory import open_transport
 
 __all__ = ["Gateway"]
 
@@ -69,7 +68,7 @@ class Gateway:
         self,
         config: GatewayConfig,
         *,
-        transports: Mapping[str, Transport] | None = None,
+        transports: Mapping[str, Transport],
         time_scale: float = 1.0,
     ) -> None:
         self.config = config
@@ -80,12 +79,13 @@ class Gateway:
         self.schedulers: dict[str, LoopScheduler] = {}
         self.pollers: dict[str, Poller] = {}
         self.started = time.time()
-        transports = dict(transports or {})
+        transports = dict(transports)
+        missing = [ref.name for ref in self.topology.loops() if ref.name not in transports]
+        if missing:
+            raise ValueError(f"no transport for the loops {missing}")
         for ref in self.topology.loops():
             settings = ref.settings
-            transport = transports.pop(ref.name, None) or open_transport(
-                settings.port, settings.baud
-            )
+            transport = transports.pop(ref.name)
             scheduler = LoopScheduler(transport, loop_config(settings, ref, time_scale))
             self.schedulers[ref.name] = scheduler
             self.pollers[ref.name] = attach(
