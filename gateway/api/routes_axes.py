@@ -1,4 +1,4 @@
-"""Routes of the axes (issue 5): views, motion, stop, speed, errors, and the control leases.
+"""Routes of the axes: views, motion, stop, speed, errors, and the control leases.
 
 Paths are relative to ``/api/v1``; ``{id}`` is an axis id (``loop.body.motor``) or its name.
 Reads are for viewers; motion, settings and leases for operators. Motion answers ``202`` with
@@ -12,6 +12,8 @@ lease or a motion.
 
 from __future__ import annotations
 
+from collections.abc import Awaitable, Callable
+from dataclasses import dataclass
 from typing import Annotated
 
 from fastapi import APIRouter, Body, Depends, Path, Query, Request, Response
@@ -108,40 +110,73 @@ async def get_axis(
 # ---------------------------------------------------------------------- motion
 
 
-async def _answer(
+@dataclass(frozen=True)
+class MotionCall:
+    """What every motion route of an axis is called with besides its body: the HTTP
+    request and response, the axes, the operator, ``wait`` and ``timeout``."""
+
+    request: Request
+    response: Response
+    axes: AxisService
+    principal: Principal
+    wait: bool
+    timeout: float
+
+    async def answer(self, id: str, start: Callable[[str], Awaitable[Operation]]) -> OperationView:
+        """Start the operation (``start(holder)``) on axis ``id`` and answer: 202 + Location,
+        or with ``wait`` the ended operation: 200 only when it is ``done``; ``failed`` and
+        ``unknown`` are problems carrying the operation (``motion_problem``). A wait that times
+        out is answered 202 with the operation still running: the device did nothing wrong,
+        so no 5xx."""
+        request, response = self.request, self.response
+        before = self.axes.position(id)
+        op = await start(self.principal.name)
+        try:
+            location = str(request.app.url_path_for("get_operation", id=op.id))
+        except NoMatchFound:
+            location = f"/api/v1/operations/{op.id}"
+        audit_note(request, bytes_sent=op.frames, operation=op.id, position_before=before)
+        response.headers["Location"] = location
+        if self.wait:
+            op = await self.axes.operations.wait(op.id, self.timeout)
+            if op.final:
+                audit_note(request, position_after=op.position, result=op.state.value)
+                if op.state is not OperationState.DONE:
+                    raise motion_problem(op.view(), location)
+                response.status_code = 200
+            else:
+                audit_note(request, result=op.state.value)
+                response.status_code = 202
+        else:
+            response.status_code = 202
+            audit_note(request, result=op.state.value)
+        return op.view()
+
+
+async def _motion(
     request: Request,
     response: Response,
-    operations: Operations,
-    op: Operation,
-    before: int | None,
-    wait: bool,
-    timeout: float,
-) -> OperationView:
-    """202 + Location, or with ``wait`` the ended operation: 200 only when it is ``done``;
-    ``failed`` and ``unknown`` are problems carrying the operation (``motion_problem``). A
-    wait that times out is answered 202 with the operation still running: the device did
-    nothing wrong, so no 5xx."""
-    try:
-        location = str(request.app.url_path_for("get_operation", id=op.id))
-    except NoMatchFound:
-        location = f"/api/v1/operations/{op.id}"
-    audit_note(request, bytes_sent=op.frames, operation=op.id, position_before=before)
-    response.headers["Location"] = location
-    if wait:
-        op = await operations.wait(op.id, timeout)
-        if op.final:
-            audit_note(request, position_after=op.position, result=op.state.value)
-            if op.state is not OperationState.DONE:
-                raise motion_problem(op.view(), location)
-            response.status_code = 200
-        else:
-            audit_note(request, result=op.state.value)
-            response.status_code = 202
-    else:
-        response.status_code = 202
-        audit_note(request, result=op.state.value)
-    return op.view()
+    axes: Axes,
+    principal: Operator,
+    wait: Wait = False,
+    timeout: Timeout = 30.0,
+) -> MotionCall:
+    return MotionCall(request, response, axes, principal, wait, timeout)
 
+
+async def _homing(
+    request: Request,
+    response: Response,
+    axes: Axes,
+    principal: Operator,
+    wait: Wait = False,
+    timeout: Timeout = 60.0,  # a search may cross the whole travel at Low speed
+) -> MotionCall:
+    return MotionCall(request, response, axes, principal, wait, timeout)
+
+
+Motion = Annotated[MotionCall, Depends(_motion)]
+Homing = Annotated[MotionCall, Depends(_homing)]
 
 _MOTION = {
     "status_code": 202,
@@ -155,79 +190,44 @@ _MOTION = {
 
 
 @router.post("/axes/{id}/move", **_MOTION)  # type: ignore[arg-type]
-async def move(
-    id: Id,
-    body: MoveRequest,
-    request: Request,
-    response: Response,
-    axes: Axes,
-    principal: Annotated[Principal, Depends(require(Role.OPERATOR))],
-    wait: Wait = False,
-    timeout: Timeout = 30.0,
-) -> OperationView:
+async def move(id: Id, body: MoveRequest, motion: Motion) -> OperationView:
     """Move to ``position`` (``relative``: by it); soft limits and the position counter are
     checked before anything is sent. Absolute: ``2{pp}`` + ``3``; relative ``2{|d|}`` +
     ``4`` (CW) / ``5`` (CCW) (§10 2, 3, 4, 5)."""
-    before = axes.position(id)
-    op = await axes.move(
-        id, body.position, relative=body.relative, unit=body.unit, holder=principal.name
+    return await motion.answer(
+        id,
+        lambda holder: motion.axes.move(
+            id, body.position, relative=body.relative, unit=body.unit, holder=holder
+        ),
     )
-    return await _answer(request, response, axes.operations, op, before, wait, timeout)
 
 
 @router.post("/axes/{id}/home", **_MOTION)  # type: ignore[arg-type]
 async def home(
-    id: Id,
-    request: Request,
-    response: Response,
-    axes: Axes,
-    principal: Annotated[Principal, Depends(require(Role.OPERATOR))],
-    body: Annotated[HomeRequest | None, Body()] = None,
-    wait: Wait = False,
-    timeout: Timeout = 60.0,
+    id: Id, motion: Homing, body: Annotated[HomeRequest | None, Body()] = None
 ) -> OperationView:
     """Search the origin; the position is 0 where it ends (§10 0, 0A, 0H, 0R, 0Z)."""
-    before = axes.position(id)
     method = (body or HomeRequest()).method
-    op = await axes.home(id, method, holder=principal.name)
-    return await _answer(request, response, axes.operations, op, before, wait, timeout)
+    return await motion.answer(id, lambda holder: motion.axes.home(id, method, holder=holder))
 
 
 @router.post("/axes/{id}/jog", **_MOTION)  # type: ignore[arg-type]
-async def jog(
-    id: Id,
-    body: JogRequest,
-    request: Request,
-    response: Response,
-    axes: Axes,
-    principal: Annotated[Principal, Depends(require(Role.OPERATOR))],
-    wait: Wait = False,
-    timeout: Timeout = 30.0,
-) -> OperationView:
+async def jog(id: Id, body: JogRequest, motion: Motion) -> OperationView:
     """Turn at Low (``7``/``8``) or High speed (then ``H``) until a stop or a limit; the
     same request on a jog already running changes only its speed (``H``/``L``). Toward a
     soft limit the jog is a move to the limit at the jog speed (``2`` + ``3``; Low: OH set
     to OL for it), ended by a stop like any jog; at or past the limit: 422."""
-    before = axes.position(id)
-    op = await axes.jog(id, body.direction, body.speed, holder=principal.name)
-    return await _answer(request, response, axes.operations, op, before, wait, timeout)
+    return await motion.answer(
+        id, lambda holder: motion.axes.jog(id, body.direction, body.speed, holder=holder)
+    )
 
 
 @router.post("/axes/{id}/step", **_MOTION)  # type: ignore[arg-type]
-async def step(
-    id: Id,
-    body: StepRequest,
-    request: Request,
-    response: Response,
-    axes: Axes,
-    principal: Annotated[Principal, Depends(require(Role.OPERATOR))],
-    wait: Wait = False,
-    timeout: Timeout = 30.0,
-) -> OperationView:
+async def step(id: Id, body: StepRequest, motion: Motion) -> OperationView:
     """One pulse CW (``7*``) or CCW (``8*``), inside the soft limits."""
-    before = axes.position(id)
-    op = await axes.step(id, body.direction, holder=principal.name)
-    return await _answer(request, response, axes.operations, op, before, wait, timeout)
+    return await motion.answer(
+        id, lambda holder: motion.axes.step(id, body.direction, holder=holder)
+    )
 
 
 @router.post("/axes/{id}/stop", response_model=StopResult)
