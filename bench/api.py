@@ -59,7 +59,7 @@ async def serve(rate_limit: int) -> None:
     from gateway.api.security import AuthConfig
     from gateway.bus.events import ReplyObserved
     from gateway.protocol.registry import parse
-    from gateway.service.runtime.gateway import Gateway
+    from gateway.service.runtime.runtime import Runtime
     from gateway.service.runtime.simulated import SIM_LOOP, simulated_config
     from gateway.sim.cli import build_loop
     from gateway.sim.clock import SimClock
@@ -69,7 +69,7 @@ async def serve(rate_limit: int) -> None:
     sim = build_loop(["1", "2", "3"], clock=SimClock(1.0))
     config = simulated_config(("1", "2", "3"))
     transport = PipeTransport(lambda: SimPort(sim))
-    gateway = Gateway(config, transports={SIM_LOOP: transport})
+    gateway = Runtime(config, transports={SIM_LOOP: transport})
     app: FastAPI = create_app(gateway, auth=AuthConfig(no_auth=True))
 
     @app.get(f"{API_PREFIX}/bench/trivial")

@@ -26,7 +26,7 @@ from gateway.api.exposition import Exposition
 from gateway.service.events import EventKind, ServiceEvent
 from gateway.service.operations.types import FINAL
 from gateway.service.runtime.bus_types import BusEvent, ErrorKind, TransactionDone
-from gateway.service.runtime.gateway import Gateway
+from gateway.service.runtime.runtime import Runtime
 
 __all__ = ["CellMetrics", "render_build_and_process"]
 
@@ -43,7 +43,7 @@ _FINAL = {str(state) for state in FINAL}
 class CellMetrics:
     """Watches a gateway's events for the counts; renders the per-resource series."""
 
-    def __init__(self, gateway: Gateway) -> None:
+    def __init__(self, gateway: Runtime) -> None:
         self.gateway = gateway
         #: (controller id, kind, final state) -> operations
         self.operations: dict[tuple[str, str, str], int] = {}

@@ -363,7 +363,7 @@ def install_problem_handlers(app: FastAPI) -> None:
     ``openapi_docs.install_openapi_docs`` calls, documents them so in its OpenAPI: it reads the
     routes' roles from security, which stands on this module).
 
-    Call it before ``install_audit`` and ``install_operations`` so their middlewares sit
+    Call it before ``install_audit`` and ``install_health_and_metrics`` so their middlewares sit
     outside the catch-all and see its 500.
     """
     app.add_exception_handler(RequestValidationError, _on_validation)

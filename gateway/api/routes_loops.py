@@ -1,4 +1,4 @@
-"""Routes of the loops (issue 5): views, raw command text, the line trace.
+"""Routes of the loops: views, raw command text, the line trace.
 
 ``POST /loops/{loop}/raw`` (admin) takes command text for one controller of the loop and
 parses it through the catalog first: text that fits no form is refused 422 with the reason

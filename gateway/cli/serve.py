@@ -37,7 +37,7 @@ from gateway.mqtt.commands import DeviceCommands
 from gateway.mqtt.edge_node import EdgeNode
 from gateway.protocol.framing import Series
 from gateway.service.config import ConfigError, GatewayConfig
-from gateway.service.runtime.gateway import Gateway
+from gateway.service.runtime.runtime import Runtime
 from gateway.service.runtime.simulated import SIM_LOOP, simulated_config
 from gateway.service.runtime.state_log import StateLog
 from gateway.sim.cli import (
@@ -204,7 +204,7 @@ def _auth(args: argparse.Namespace, config: GatewayConfig) -> AuthConfig:
 
 
 def _edge_node(
-    gateway: Gateway, config: GatewayConfig, auth: AuthConfig, app: Any
+    gateway: Runtime, config: GatewayConfig, auth: AuthConfig, app: Any
 ) -> EdgeNode | None:
     """The Sparkplug B edge node of ``[mqtt]`` (None without the section); its DCMDs are
     authorised by the API's tokens (always: no-auth mode is for loopback, a broker is not)
@@ -239,7 +239,7 @@ async def serve(args: argparse.Namespace) -> int:
     if not args.simulate:
         transports = open_lines(config)
     auth = _auth(args, config)
-    gateway = Gateway(config, transports=transports, time_scale=args.time_scale)
+    gateway = Runtime(config, transports=transports, time_scale=args.time_scale)
     StateLog(gateway).start()
     app = create_app(gateway, auth=auth)
     control: asyncio.Server | None = None

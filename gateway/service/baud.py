@@ -40,7 +40,7 @@ from gateway.errors import ConflictError, DeviceError, InvalidInputError
 from gateway.protocol.framing import BAUD_RATES
 from gateway.protocol.registry import parse
 from gateway.protocol.reply_values import ProgramState
-from gateway.service.runtime.gateway import Gateway
+from gateway.service.runtime.runtime import Runtime
 from gateway.service.topology import ControllerRef
 
 __all__ = ["BAUD_CODES", "BaudChange", "BaudChanger", "ControllerBaud"]
@@ -84,7 +84,7 @@ class BaudChange(BaseModel):
 class BaudChanger:
     """Moves the controllers of a loop and the gateway's port to another rate."""
 
-    def __init__(self, gateway: Gateway) -> None:
+    def __init__(self, gateway: Runtime) -> None:
         self.gateway = gateway
         self._busy: set[str] = set()
 

@@ -34,7 +34,7 @@ from gateway.protocol.reply_values import ProgramState
 from gateway.protocol.spec import Effect
 from gateway.service.axes.soft_limits import SoftLimits
 from gateway.service.roles import Role
-from gateway.service.runtime.gateway import Gateway
+from gateway.service.runtime.runtime import Runtime
 from gateway.service.topology import ControllerRef
 
 __all__ = [
@@ -46,11 +46,12 @@ __all__ = [
     "required_role",
 ]
 
-#: Mnemonics whose non-query forms need the admin role (issue 5: admin = raw, EEPROM,
-#: programs, mode, framing). EEPROM: AW, DW, IW write it, EE/// erases it, AL, DL, IL load it
-#: over RAM, ES writes the baud rate to it at once (§10 ES); mode: E, and EP / ED which change
-#: how positions are counted and pulses are output (§10 EP, ED); framing: EE, EL, ER, SUM
-#: (§10); programs: I (upload) and GA (GAS/GAR write the EEPROM at once, §10 GA).
+#: Mnemonics whose non-query forms need the admin role: what outlives the request or changes
+#: how the line talks (raw, EEPROM, programs, mode, framing). EEPROM: AW, DW, IW write it,
+#: EE/// erases it, AL, DL, IL load it over RAM, ES writes the baud rate to it at once
+#: (§10 ES); mode: E, and EP / ED which change how positions are counted and pulses are
+#: output (§10 EP, ED); framing: EE, EL, ER, SUM (§10); programs: I (upload) and GA
+#: (GAS/GAR write the EEPROM at once, §10 GA).
 ADMIN_MNEMONICS = frozenset(
     {"AW", "DW", "IW", "EE///", "AL", "DL", "IL", "ES", "E", "EP", "ED", "EE", "EL", "ER", "SUM",
      "I", "GA"}
@@ -101,7 +102,7 @@ def _changes_something(command: Command) -> bool:
 class CommandRunner:
     """Checks and sends commands to controllers of ``gateway``."""
 
-    def __init__(self, gateway: Gateway, leases: LeaseCheck) -> None:
+    def __init__(self, gateway: Runtime, leases: LeaseCheck) -> None:
         self.gateway = gateway
         self.leases = leases
         self.limits = SoftLimits(gateway)

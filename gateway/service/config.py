@@ -1,4 +1,4 @@
-"""The gateway's configuration: a TOML file read into pydantic models (issue 5).
+"""The gateway's configuration: a TOML file read into pydantic models.
 
 One file describes a cell: its loops (port URL, baud, time-outs, poll periods, SUM at
 connect), the controllers on each (body number, name) and their axes (name, user units, soft

@@ -1,7 +1,7 @@
-"""Where ``Gateway`` lived before ``service/runtime/``: kept only while ``api/app.py`` imports
-it from here (it is being edited on another branch); delete once that import names
-``gateway.service.runtime.gateway``."""
+"""Where the running gateway (now ``gateway.service.runtime.Runtime``) lived, under the name
+``Gateway``: kept only while ``api/app.py`` imports it from here (it is being edited on
+another branch); delete once that import names ``gateway.service.runtime``."""
 
-from gateway.service.runtime.gateway import Gateway
+from gateway.service.runtime.runtime import Runtime as Gateway
 
 __all__ = ["Gateway"]

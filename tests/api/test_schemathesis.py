@@ -29,7 +29,7 @@ from gateway.api.app import create_app
 from gateway.api.security import AuthConfig
 from gateway.cli.documents import documents
 from gateway.cli.serve import sim_line
-from gateway.service.runtime.gateway import Gateway
+from gateway.service.runtime.runtime import Runtime
 from gateway.service.runtime.simulated import SIM_LOOP, simulated_config
 from gateway.sim.cli import build_loop
 from gateway.sim.clock import SimClock
@@ -58,7 +58,7 @@ class ServerThread(threading.Thread):
 
     async def _serve(self) -> None:
         sim = build_loop(["1", "2", "3"], clock=SimClock(SCALE))
-        gateway = Gateway(
+        gateway = Runtime(
             simulated_config(),
             transports={SIM_LOOP: sim_line(sim)},
             time_scale=SCALE,

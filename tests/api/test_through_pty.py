@@ -17,7 +17,7 @@ from gateway.api.app import create_app
 from gateway.api.security import AuthConfig
 from gateway.cli.serve import open_lines
 from gateway.service.config import load_config
-from gateway.service.runtime.gateway import Gateway
+from gateway.service.runtime.runtime import Runtime
 from tests.sim_process import sim_on_pty
 
 SCALE = 20.0
@@ -47,7 +47,7 @@ async def client(tmp_path: Path) -> AsyncIterator[httpx.AsyncClient]:
         cell = tmp_path / "cell.toml"
         cell.write_text(CELL.format(port=port))
         config = load_config(cell)
-        gateway = Gateway(config, transports=open_lines(config), time_scale=SCALE)
+        gateway = Runtime(config, transports=open_lines(config), time_scale=SCALE)
         app = create_app(gateway, auth=AuthConfig(no_auth=True))
         async with app.router.lifespan_context(app):
             transport = httpx.ASGITransport(app=app)

@@ -10,7 +10,7 @@ from gateway.bus.config import LoopConfig
 from gateway.bus.poll_plan import PollConfig
 from gateway.service.config import ConfigError, load_config, parse_config
 from gateway.service.roles import Role
-from gateway.service.runtime.gateway import loop_config, poll_config
+from gateway.service.runtime.runtime import loop_config, poll_config
 from gateway.service.topology import Topology
 
 EXAMPLE = Path(__file__).parents[2] / "deploy" / "cell.example.toml"

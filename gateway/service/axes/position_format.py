@@ -15,7 +15,7 @@ from gateway.errors import InvalidInputError
 from gateway.protocol.models import Command
 from gateway.protocol.params import PositionFormat
 from gateway.protocol.registry import parse
-from gateway.service.runtime.gateway import Gateway
+from gateway.service.runtime.runtime import Runtime
 from gateway.service.topology import AxisRef
 
 __all__ = ["PositionFormats", "check_target", "position_data"]
@@ -24,7 +24,7 @@ __all__ = ["PositionFormats", "check_target", "position_data"]
 class PositionFormats:
     """The position management of every controller, read from the device when not known."""
 
-    def __init__(self, gateway: Gateway) -> None:
+    def __init__(self, gateway: Runtime) -> None:
         self.gateway = gateway
 
     def known(self, loop: str, body: str) -> PositionFormat | None:

@@ -1,4 +1,4 @@
-"""Axes as users act on them: move, home, jog, step, stop, speed, errors (issue 5).
+"""Axes as users act on them: move, home, jog, step, stop, speed, errors.
 
 Every check a request can fail is made before anything is sent: the lease (the axis and its
 controller), the controller online and not moving (§2: its two motors never move together; a
@@ -58,7 +58,7 @@ from gateway.service.operations.terms import (
     Unit,
 )
 from gateway.service.operations.types import frames_of
-from gateway.service.runtime.gateway import Gateway
+from gateway.service.runtime.runtime import Runtime
 from gateway.service.topology import AxisRef
 from gateway.service.views import AxisView, axis_view
 
@@ -81,7 +81,7 @@ _STEP = {Direction.CW: "7*", Direction.CCW: "8*"}
 class AxisService:
     """Every action on an axis; the API's routes call these."""
 
-    def __init__(self, gateway: Gateway, operations: Operations, leases: Leases) -> None:
+    def __init__(self, gateway: Runtime, operations: Operations, leases: Leases) -> None:
         self.gateway = gateway
         self.operations = operations
         self.leases = leases

@@ -41,7 +41,7 @@ from gateway.protocol.params import PositionFormat
 from gateway.protocol.registry import parse
 from gateway.protocol.spec import Effect
 from gateway.service.axes.position_format import PositionFormats, check_target, position_data
-from gateway.service.runtime.gateway import Gateway
+from gateway.service.runtime.runtime import Runtime
 from gateway.service.topology import POSITION_MAX, POSITION_MIN, AxisRef, ControllerRef
 
 __all__ = ["Guarded", "SoftLimits", "has_soft_limits", "jog_limit"]
@@ -96,7 +96,7 @@ class Guarded:
 class SoftLimits:
     """Resolves and checks the target of motion commands sent by ``/commands`` and ``/raw``."""
 
-    def __init__(self, gateway: Gateway) -> None:
+    def __init__(self, gateway: Runtime) -> None:
         self.gateway = gateway
         self.formats = PositionFormats(gateway)
 

@@ -116,7 +116,8 @@ class ProgramService:
     async def stop(self, ref: ControllerRef, mode: str, *, holder: str) -> CommandResponse:
         """``GE`` (end at a statement boundary) or ``GES`` (at once, stopping the motor).
 
-        Never refused by a lease: stopping is always allowed (issue 5, leases).
+        Never refused by a lease: whoever holds the controller, anyone may stop a program, as
+        anyone may stop a motion (a stop must never wait for the holder).
         """
         if mode == "immediate":
             scheduler = self.runner.gateway.scheduler(ref.loop)

@@ -1,4 +1,4 @@
-"""Controllers and loops as clients use them (issue 5): views, any command, raw text, trace.
+"""Controllers and loops as clients use them: views, any command, raw text, trace.
 
 ``ControllerService(gateway, leases, operations)`` is what the controller and loop routes call:
 
@@ -33,7 +33,7 @@ from gateway.service.control import ControlView
 from gateway.service.controllers.programs import ProgramService
 from gateway.service.controllers.replies import CommandResponse, response_of
 from gateway.service.controllers.resources import ControllerResources
-from gateway.service.runtime.gateway import Gateway
+from gateway.service.runtime.runtime import Runtime
 from gateway.service.topology import ControllerRef
 from gateway.service.views import ControllerView, LoopView, controller_view, loop_view, wall_time
 
@@ -67,7 +67,7 @@ class TraceView(BaseModel):
 class ControllerService:
     """Controllers and loops of ``gateway`` as the API shows them."""
 
-    def __init__(self, gateway: Gateway, leases: LeaseCheck, operations: Any = None) -> None:
+    def __init__(self, gateway: Runtime, leases: LeaseCheck, operations: Any = None) -> None:
         self.gateway = gateway
         self.leases = leases
         self.operations = operations

@@ -1,7 +1,7 @@
 """How the end of a motion is seen, for ``Operations``.
 
 The end of a motion is seen in the status reads (``""``) that follow the send: the poller
-reads ``""`` every ``moving_period`` while a motor moves (issue 4), and the scheduler publishes
+reads ``""`` every ``moving_period`` while a motor moves, and the scheduler publishes
 every reply, whoever asked. ``""`` clears its error bits on the device (§10 "" 注意点), so the
 errors are taken from the reads themselves: a limit error or an emergency stop reported after
 the send makes the operation ``failed``, as does a command error before the motor was ever
@@ -31,7 +31,7 @@ from gateway.protocol.registry import parse
 from gateway.protocol.reply_values import StatusFlags
 from gateway.protocol.spec import Effect
 from gateway.service.operations.types import FINAL, Operation, OperationError, OperationState
-from gateway.service.runtime.gateway import Gateway
+from gateway.service.runtime.runtime import Runtime
 
 __all__ = ["FINAL_READ_WAIT", "READ_BACK_HOLD", "MotionWatch"]
 
@@ -93,7 +93,7 @@ class MotionWatch:
 
     def __init__(
         self,
-        gateway: Gateway,
+        gateway: Runtime,
         book: OperationBook,
     ) -> None:
         self.gateway = gateway

@@ -31,7 +31,7 @@ from gateway.service.operations.types import (
     OperationView,
     frames_of,
 )
-from gateway.service.runtime.gateway import Gateway
+from gateway.service.runtime.runtime import Runtime
 from gateway.service.topology import AxisRef
 
 __all__ = ["Operation", "OperationError", "OperationState", "OperationView", "Operations"]
@@ -43,7 +43,7 @@ class Operations:
     """Every operation of the gateway (the last ``retention``), and the tracking of the
     active one per controller (its two motors never move together, §2)."""
 
-    def __init__(self, gateway: Gateway, *, retention: int = 10_000) -> None:
+    def __init__(self, gateway: Runtime, *, retention: int = 10_000) -> None:
         self.gateway = gateway
         self.retention = retention
         self._ops: OrderedDict[str, Operation] = OrderedDict()

@@ -1,9 +1,10 @@
 """The running gateway: one scheduler and poller per configured loop, one state cache for all.
 
-``Gateway(config)`` builds nothing that touches a port; ``await start()`` opens every loop
-(one attempt each; a loop that cannot open now keeps trying in the background, and requests
-to it fail with ``LoopDown`` meanwhile) and starts polling; ``await close()`` stops accepting,
-lets the transaction in flight on each loop finish and closes the ports.
+``Runtime(config, transports=...)`` builds nothing that touches a port; ``await start()``
+opens every loop (one attempt each; a loop that cannot open now keeps trying in the
+background, and requests to it fail with ``LoopDown`` meanwhile) and starts polling;
+``await close()`` stops accepting, lets the transaction in flight on each loop finish and
+closes the ports.
 
 The transports come from whoever owns the process, one per loop (``transports``): the command
 line opens the configured ports (``gateway.cli.serve.open_lines``) or puts the in-process
@@ -34,7 +35,7 @@ from gateway.service.runtime.key_switch import KeySwitchReader
 from gateway.service.topology import LoopRef, Topology
 from gateway.transport.base import Transport
 
-__all__ = ["Gateway"]
+__all__ = ["Runtime", "loop_config", "poll_config"]
 
 log = logging.getLogger("gateway.service")
 
@@ -61,8 +62,9 @@ def poll_config(settings: LoopSettings) -> PollConfig:
     return PollConfig(**settings.poll.model_dump())  # PollSettings' fields are PollConfig's
 
 
-class Gateway:
-    """Every loop of a configuration, running."""
+class Runtime:
+    """The running gateway: every loop of a configuration, its state cache, service events,
+    control states and key switch reader (what the faces are built on)."""
 
     def __init__(
         self,
