@@ -12,7 +12,6 @@ lease or a motion.
 
 from __future__ import annotations
 
-from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
 from typing import Annotated
 
@@ -122,15 +121,18 @@ class MotionCall:
     wait: bool
     timeout: float
 
-    async def answer(self, id: str, start: Callable[[str], Awaitable[Operation]]) -> OperationView:
-        """Start the operation (``start(holder)``) on axis ``id`` and answer: 202 + Location,
-        or with ``wait`` the ended operation: 200 only when it is ``done``; ``failed`` and
-        ``unknown`` are problems carrying the operation (``motion_problem``). A wait that times
-        out is answered 202 with the operation still running: the device did nothing wrong,
-        so no 5xx."""
+    @property
+    def holder(self) -> str:
+        """The name the lease check and the audit know the caller by."""
+        return self.principal.name
+
+    async def answer(self, op: Operation, before: int | None) -> OperationView:
+        """The answer to the operation ``op`` just started (the axis was at ``before``):
+        202 + Location, or with ``wait`` the ended operation: 200 only when it is ``done``;
+        ``failed`` and ``unknown`` are problems carrying the operation (``motion_problem``). A
+        wait that times out is answered 202 with the operation still running: the device did
+        nothing wrong, so no 5xx."""
         request, response = self.request, self.response
-        before = self.axes.position(id)
-        op = await start(self.principal.name)
         try:
             location = str(request.app.url_path_for("get_operation", id=op.id))
         except NoMatchFound:
@@ -194,12 +196,11 @@ async def move(id: Id, body: MoveRequest, motion: Motion) -> OperationView:
     """Move to ``position`` (``relative``: by it); soft limits and the position counter are
     checked before anything is sent. Absolute: ``2{pp}`` + ``3``; relative ``2{|d|}`` +
     ``4`` (CW) / ``5`` (CCW) (§10 2, 3, 4, 5)."""
-    return await motion.answer(
-        id,
-        lambda holder: motion.axes.move(
-            id, body.position, relative=body.relative, unit=body.unit, holder=holder
-        ),
+    before = motion.axes.position(id)
+    op = await motion.axes.move(
+        id, body.position, relative=body.relative, unit=body.unit, holder=motion.holder
     )
+    return await motion.answer(op, before)
 
 
 @router.post("/axes/{id}/home", **_MOTION)  # type: ignore[arg-type]
@@ -207,8 +208,10 @@ async def home(
     id: Id, motion: Homing, body: Annotated[HomeRequest | None, Body()] = None
 ) -> OperationView:
     """Search the origin; the position is 0 where it ends (§10 0, 0A, 0H, 0R, 0Z)."""
+    before = motion.axes.position(id)
     method = (body or HomeRequest()).method
-    return await motion.answer(id, lambda holder: motion.axes.home(id, method, holder=holder))
+    op = await motion.axes.home(id, method, holder=motion.holder)
+    return await motion.answer(op, before)
 
 
 @router.post("/axes/{id}/jog", **_MOTION)  # type: ignore[arg-type]
@@ -217,17 +220,17 @@ async def jog(id: Id, body: JogRequest, motion: Motion) -> OperationView:
     same request on a jog already running changes only its speed (``H``/``L``). Toward a
     soft limit the jog is a move to the limit at the jog speed (``2`` + ``3``; Low: OH set
     to OL for it), ended by a stop like any jog; at or past the limit: 422."""
-    return await motion.answer(
-        id, lambda holder: motion.axes.jog(id, body.direction, body.speed, holder=holder)
-    )
+    before = motion.axes.position(id)
+    op = await motion.axes.jog(id, body.direction, body.speed, holder=motion.holder)
+    return await motion.answer(op, before)
 
 
 @router.post("/axes/{id}/step", **_MOTION)  # type: ignore[arg-type]
 async def step(id: Id, body: StepRequest, motion: Motion) -> OperationView:
     """One pulse CW (``7*``) or CCW (``8*``), inside the soft limits."""
-    return await motion.answer(
-        id, lambda holder: motion.axes.step(id, body.direction, holder=holder)
-    )
+    before = motion.axes.position(id)
+    op = await motion.axes.step(id, body.direction, holder=motion.holder)
+    return await motion.answer(op, before)
 
 
 @router.post("/axes/{id}/stop", response_model=StopResult)
