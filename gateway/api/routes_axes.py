@@ -12,11 +12,9 @@ lease or a motion.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Annotated
 
-from fastapi import APIRouter, Body, Depends, Path, Query, Request, Response
-from starlette.routing import NoMatchFound
+from fastapi import APIRouter, Body, Depends, Path, Query, Request
 
 from gateway.api.audit import audit_note
 from gateway.api.bodies import (
@@ -29,18 +27,16 @@ from gateway.api.bodies import (
     StepRequest,
     StopRequest,
 )
-from gateway.api.motion_problems import MOTION_PROBLEM_RESPONSES, motion_problem
+from gateway.api.motion_problems import MOTION_PROBLEM_RESPONSES
 from gateway.api.problems import PROBLEM_RESPONSES
+from gateway.api.route_calls import Axes, Homing, Motion, axes_of, controllers_of
 from gateway.api.routes_leases import LeaseView, lease_routes
 from gateway.api.security import Principal, require
 from gateway.service.axes.service import (
-    AxisService,
     StopResult,
 )
 from gateway.service.axes.speeds import SpeedView
-from gateway.service.controllers.service import ControllerService
-from gateway.service.operations.registry import Operation, Operations
-from gateway.service.operations.types import OperationState, OperationView
+from gateway.service.operations.types import OperationView
 from gateway.service.roles import Role
 from gateway.service.views import AxisView
 
@@ -51,39 +47,6 @@ router = APIRouter(tags=["axes"], responses=PROBLEM_RESPONSES)
 Id = Annotated[str, Path(description="axis id (loop.body.motor) or name", examples=["sim.1.1"])]
 Viewer = Annotated[Principal, Depends(require(Role.VIEWER))]
 Operator = Annotated[Principal, Depends(require(Role.OPERATOR))]
-Wait = Annotated[bool, Query(description="answer when the motion has ended")]
-Timeout = Annotated[
-    float,
-    Query(
-        gt=0,
-        le=3600,
-        allow_inf_nan=False,
-        description="seconds to wait with wait=true (then 202: still running)",
-    ),
-]
-
-
-def _controllers_of(request: Request) -> ControllerService:
-    service: ControllerService = request.app.state.controllers
-    return service
-
-
-def _axes_of(request: Request) -> AxisService:
-    service: AxisService = request.app.state.axes
-    return service
-
-
-async def _axes(request: Request) -> AxisService:
-    # async: a sync dependency costs every request a hop to the thread pool and back.
-    return _axes_of(request)
-
-
-async def _operations(request: Request) -> Operations:
-    service: Operations = request.app.state.operations
-    return service
-
-
-Axes = Annotated[AxisService, Depends(_axes)]
 
 
 # ---------------------------------------------------------------------- views
@@ -108,77 +71,6 @@ async def get_axis(
 
 # ---------------------------------------------------------------------- motion
 
-
-@dataclass(frozen=True)
-class MotionCall:
-    """What every motion route of an axis is called with besides its body: the HTTP
-    request and response, the axes, the operator, ``wait`` and ``timeout``."""
-
-    request: Request
-    response: Response
-    axes: AxisService
-    principal: Principal
-    wait: bool
-    timeout: float
-
-    @property
-    def holder(self) -> str:
-        """The name the lease check and the audit know the caller by."""
-        return self.principal.name
-
-    async def answer(self, op: Operation, before: int | None) -> OperationView:
-        """The answer to the operation ``op`` just started (the axis was at ``before``):
-        202 + Location, or with ``wait`` the ended operation: 200 only when it is ``done``;
-        ``failed`` and ``unknown`` are problems carrying the operation (``motion_problem``). A
-        wait that times out is answered 202 with the operation still running: the device did
-        nothing wrong, so no 5xx."""
-        request, response = self.request, self.response
-        try:
-            location = str(request.app.url_path_for("get_operation", id=op.id))
-        except NoMatchFound:
-            location = f"/api/v1/operations/{op.id}"
-        audit_note(request, bytes_sent=op.frames, operation=op.id, position_before=before)
-        response.headers["Location"] = location
-        if self.wait:
-            op = await self.axes.operations.wait(op.id, self.timeout)
-            if op.final:
-                audit_note(request, position_after=op.position, result=op.state.value)
-                if op.state is not OperationState.DONE:
-                    raise motion_problem(op.view(), location)
-                response.status_code = 200
-            else:
-                audit_note(request, result=op.state.value)
-                response.status_code = 202
-        else:
-            response.status_code = 202
-            audit_note(request, result=op.state.value)
-        return op.view()
-
-
-async def _motion(
-    request: Request,
-    response: Response,
-    axes: Axes,
-    principal: Operator,
-    wait: Wait = False,
-    timeout: Timeout = 30.0,
-) -> MotionCall:
-    return MotionCall(request, response, axes, principal, wait, timeout)
-
-
-async def _homing(
-    request: Request,
-    response: Response,
-    axes: Axes,
-    principal: Operator,
-    wait: Wait = False,
-    timeout: Timeout = 60.0,  # a search may cross the whole travel at Low speed
-) -> MotionCall:
-    return MotionCall(request, response, axes, principal, wait, timeout)
-
-
-Motion = Annotated[MotionCall, Depends(_motion)]
-Homing = Annotated[MotionCall, Depends(_homing)]
 
 _MOTION = {
     "status_code": 202,
@@ -287,12 +179,12 @@ async def acknowledge(
 
 # ---------------------------------------------------------------------- leases
 
-lease_routes(router, "axes", "axis", lambda request, ident: _axes_of(request).ref(ident).id)
+lease_routes(router, "axes", "axis", lambda request, ident: axes_of(request).ref(ident).id)
 lease_routes(
     router,
     "controllers",
     "controller",
-    lambda request, ident: _controllers_of(request).controller(ident).id,
+    lambda request, ident: controllers_of(request).controller(ident).id,
 )
 
 __all__ += ["LeaseRequest", "LeaseView"]

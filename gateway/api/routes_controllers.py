@@ -33,8 +33,8 @@ from gateway.api.ctl_deps import (
     forbid_unless,
     note_sent,
 )
-from gateway.api.ctl_writes import AdminWrite, OperatorWrite
 from gateway.api.problems import PROBLEM_RESPONSES
+from gateway.api.route_calls import AdminWrite, OperatorWrite
 from gateway.api.routes_programs import router as programs_router
 from gateway.protocol.models import Command
 from gateway.protocol.registry import Context, command_union

@@ -21,8 +21,8 @@ from gateway.api.bodies import (
     ProgramWrite,
 )
 from gateway.api.ctl_deps import Id, Operator, Service
-from gateway.api.ctl_writes import AdminWrite, OperatorWrite
 from gateway.api.problems import PROBLEM_RESPONSES
+from gateway.api.route_calls import AdminWrite, OperatorWrite
 from gateway.service.controllers.replies import CommandResponse
 from gateway.service.controllers.views import (
     ProgramCheck,
