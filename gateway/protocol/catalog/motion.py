@@ -127,13 +127,20 @@ CMD_6 = CommandSpec(
     section="10",
     scope=Scope.PER_MOTOR,
     forms=(
-        form("6", POSITION, QUERY, "query the current position of the selected motor"),
+        form(
+            "6",
+            POSITION,
+            QUERY,
+            "query the current position of the selected motor",
+            reads_position=True,
+        ),
         form(
             "6{mt}",
             POSITION,
             QUERY,
             "query the current position of motor MT",
             IntChoice("mt", values=(1, 2)),
+            reads_position=True,
         ),
     ),
 )
@@ -383,7 +390,7 @@ CMD_S = CommandSpec(
     title="Stop immediately",
     section="10",
     scope=Scope.PER_MOTOR,
-    forms=(form("S", ACK, STOP, "stop the motor at once"),),
+    forms=(form("S", ACK, STOP, "stop the motor at once", is_stop=True),),
 )
 
 CMD_SS = CommandSpec(
@@ -391,7 +398,7 @@ CMD_SS = CommandSpec(
     title="Slow stop (decelerate to Low speed, then stop)",
     section="10",
     scope=Scope.PER_MOTOR,
-    forms=(form("SS", ACK, STOP, "decelerate and stop"),),
+    forms=(form("SS", ACK, STOP, "decelerate and stop", is_stop=True),),
 )
 
 

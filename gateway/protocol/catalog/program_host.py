@@ -74,7 +74,7 @@ CMD_GES = CommandSpec(
     section="10",
     scope=Scope.CONTROLLER,
     user_program=False,
-    forms=(form("GES", ACK, STOP, "end the running program at once"),),
+    forms=(form("GES", ACK, STOP, "end the running program at once", is_stop=True),),
 )
 
 CMD_GN = CommandSpec(

@@ -1,0 +1,53 @@
+"""The catalog's forms the gateway asks about by identity: ``command.form is SELECT_MOTOR``.
+
+A form is one object of the catalog, so comparing it by identity names what is meant and
+cannot be fooled by how its text happens to be written.
+"""
+
+from __future__ import annotations
+
+from gateway.protocol.registry import REGISTRY
+from gateway.protocol.spec import Form
+
+__all__ = [
+    "CONDITION",
+    "CONDITION_BIT",
+    "ERASE_EEPROM",
+    "ERROR_OUTPUT_BITS",
+    "ERROR_OUTPUT_MASK",
+    "LOAD_SETTINGS",
+    "MODE",
+    "OPEN_PROGRAM",
+    "POSITION_FORMAT",
+    "SELECTED_MOTOR",
+    "SELECT_MOTOR",
+    "SET_MODE",
+    "STATUS",
+]
+
+#: ``""``: status flags.
+STATUS: Form = REGISTRY.form('""')
+#: ``9``: all condition flags.
+CONDITION: Form = REGISTRY.form("9")
+#: ``9{bit}``: one condition bit.
+CONDITION_BIT: Form = REGISTRY.form("9{bit}")
+#: ``F{mt}``: select a motor.
+SELECT_MOTOR: Form = REGISTRY.form("F{mt}")
+#: ``F``: which motor is selected.
+SELECTED_MOTOR: Form = REGISTRY.form("F")
+#: ``E{mode}``: set the operating mode.
+SET_MODE: Form = REGISTRY.form("E{mode}")
+#: ``E``: the operating mode.
+MODE: Form = REGISTRY.form("E")
+#: ``EP``: the position management (0 unsigned, 1 signed).
+POSITION_FORMAT: Form = REGISTRY.form("EP")
+#: ``DL``: every DW setting reloaded from the EEPROM.
+LOAD_SETTINGS: Form = REGISTRY.form("DL")
+#: ``EE///``: erase the EEPROM (silent for up to 20 s).
+ERASE_EEPROM: Form = REGISTRY.form("EE///")
+#: ``I``: open program reception.
+OPEN_PROGRAM: Form = REGISTRY.form("I")
+#: ``K{dt},{du}{dl}``: error output on a mask of output bits.
+ERROR_OUTPUT_MASK: Form = REGISTRY.form("K{dt},{du}{dl}")
+#: ``K{dt},{bt}``: error output on one output bit.
+ERROR_OUTPUT_BITS: Form = REGISTRY.form("K{dt},{bt}")
