@@ -17,7 +17,7 @@ ask about (``switches_framing``, ``reads_position``, ``is_stop``) is a fact of `
 
 from __future__ import annotations
 
-from gateway.protocol.commands.base import BaudCode, HomeMethod, Motor, ProgramBuffer, SpeedName
+from gateway.protocol.commands.base import BaudCode, HomeMethod, ProgramBuffer, SpeedName
 from gateway.protocol.commands.device import (
     baud_rate,
     checksum,
@@ -66,9 +66,12 @@ from gateway.protocol.commands.forms import (
     MODE,
     OPEN_PROGRAM,
     POSITION_FORMAT,
+    PROGRAM_ENDS,
+    PROGRAM_STARTS,
     SELECT_MOTOR,
     SELECTED_MOTOR,
     SET_MODE,
+    SPEED_STEPS,
     STATUS,
 )
 from gateway.protocol.commands.motion import (
@@ -102,13 +105,15 @@ __all__ = [
     "MODE",
     "OPEN_PROGRAM",
     "POSITION_FORMAT",
+    "PROGRAM_ENDS",
+    "PROGRAM_STARTS",
     "SELECTED_MOTOR",
     "SELECT_MOTOR",
     "SET_MODE",
+    "SPEED_STEPS",
     "STATUS",
     "BaudCode",
     "HomeMethod",
-    "Motor",
     "ProgramBuffer",
     "SpeedName",
     "baud_rate",

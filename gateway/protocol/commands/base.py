@@ -12,7 +12,6 @@ __all__ = [
     "SPEED_PARAM",
     "BaudCode",
     "HomeMethod",
-    "Motor",
     "ProgramBuffer",
     "SpeedName",
     "build",
@@ -20,8 +19,6 @@ __all__ = [
     "on_off",
 ]
 
-#: A motor number (§10 F: 1 or 2).
-Motor = Literal[1, 2]
 #: The speed data of one motor: High, Low, acceleration, S-curve rate, multiplier (§10 O*).
 SpeedName = Literal["OH", "OL", "OS", "OC", "OX"]
 #: §10 ES: 0 = 9600, 1 = 1200, 2 = 300 bps.
@@ -45,6 +42,6 @@ def on_off(mnemonic: str, on: bool) -> Command:
     return build(f"{mnemonic}{1 if on else 0}")
 
 
-def for_motor(key: str, motor: Motor | None) -> Command:
+def for_motor(key: str, motor: int | None) -> Command:
     """The plain form (selected motor) or its ``{mt}`` form (select MT and act on it)."""
     return build(key) if motor is None else build(f"{key}{{mt}}", mt=motor)

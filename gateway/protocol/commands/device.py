@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from gateway.protocol.commands.base import BaudCode, Motor, ProgramBuffer, build, on_off
+from gateway.protocol.commands.base import BaudCode, ProgramBuffer, build, on_off
 from gateway.protocol.models import Command
 
 __all__ = [
@@ -80,7 +80,7 @@ def selected_motor() -> Command:
     return build("F")
 
 
-def select_motor(motor: Motor) -> Command:
+def select_motor(motor: int) -> Command:
     """``F{mt}``: select the motor later commands act on."""
     return build("F{mt}", mt=motor)
 
@@ -105,7 +105,7 @@ def outputs_with_clr() -> Command:
     return build("COA")
 
 
-def sensors(motor: Motor | None = None) -> Command:
+def sensors(motor: int | None = None) -> Command:
     """``CL`` (selected or moving motor) or ``CLM{mt}`` (motor MT): the sensor inputs."""
     return build("CL") if motor is None else build("CLM{mt}", mt=motor)
 
@@ -208,7 +208,7 @@ def program_buffer(buffer: ProgramBuffer) -> Command:
     return build("GR{bf}", bf=buffer)
 
 
-def program_counter(counter: Motor) -> Command:
+def program_counter(counter: int) -> Command:
     """``GR{ct}``: counter 1 or 2."""
     return build("GR{ct}", ct=counter)
 

@@ -6,6 +6,9 @@ cannot be fooled by how its text happens to be written.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
+from gateway.protocol.commands.base import SpeedName
 from gateway.protocol.registry import REGISTRY
 from gateway.protocol.spec import Form
 
@@ -19,9 +22,12 @@ __all__ = [
     "MODE",
     "OPEN_PROGRAM",
     "POSITION_FORMAT",
+    "PROGRAM_ENDS",
+    "PROGRAM_STARTS",
     "SELECTED_MOTOR",
     "SELECT_MOTOR",
     "SET_MODE",
+    "SPEED_STEPS",
     "STATUS",
 ]
 
@@ -51,3 +57,13 @@ OPEN_PROGRAM: Form = REGISTRY.form("I")
 ERROR_OUTPUT_MASK: Form = REGISTRY.form("K{dt},{du}{dl}")
 #: ``K{dt},{bt}``: error output on one output bit.
 ERROR_OUTPUT_BITS: Form = REGISTRY.form("K{dt},{bt}")
+#: ``G``, ``G{lb}``, ``GC``: a user program runs (and may print) after these.
+PROGRAM_STARTS: frozenset[Form] = frozenset(REGISTRY.form(k) for k in ("G", "G{lb}", "GC"))
+#: ``GE``, ``GES``: the user program has ended after these.
+PROGRAM_ENDS: frozenset[Form] = frozenset(REGISTRY.form(k) for k in ("GE", "GES"))
+#: The increment and decrement forms of a speed (§10 OHI/OHD, OLI/OLD, OSI/OSD): not
+#: idempotent, so a lost reply is settled by reading the speed back.
+SPEED_STEPS: Mapping[SpeedName, frozenset[Form]] = {
+    name: frozenset((REGISTRY.form(f"{name}I{{id}}"), REGISTRY.form(f"{name}D{{dd}}")))
+    for name in ("OH", "OL", "OS")
+}

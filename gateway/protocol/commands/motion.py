@@ -5,7 +5,6 @@ from __future__ import annotations
 from gateway.protocol.commands.base import (
     SPEED_PARAM,
     HomeMethod,
-    Motor,
     SpeedName,
     build,
     for_motor,
@@ -37,7 +36,7 @@ __all__ = [
 ]
 
 
-def position(motor: Motor | None = None) -> Command:
+def position(motor: int | None = None) -> Command:
     """``6`` (selected motor) or ``6{mt}`` (motor MT, selection kept): the current position."""
     return for_motor("6", motor)
 
@@ -66,17 +65,17 @@ def set_position_data(
     return REGISTRY.build("2{pp}", values, positions)
 
 
-def move_to_position_data(motor: Motor | None = None) -> Command:
+def move_to_position_data(motor: int | None = None) -> Command:
     """``3`` / ``3{mt}``: move to the position set with ``2``."""
     return for_motor("3", motor)
 
 
-def move_cw(motor: Motor | None = None) -> Command:
+def move_cw(motor: int | None = None) -> Command:
     """``4`` / ``4{mt}``: move CW by the pulse count set with ``2``."""
     return for_motor("4", motor)
 
 
-def move_ccw(motor: Motor | None = None) -> Command:
+def move_ccw(motor: int | None = None) -> Command:
     """``5`` / ``5{mt}``: move CCW by the pulse count set with ``2``."""
     return for_motor("5", motor)
 
@@ -86,12 +85,12 @@ def home(method: HomeMethod = "0") -> Command:
     return build(method)
 
 
-def jog_cw(motor: Motor | None = None) -> Command:
+def jog_cw(motor: int | None = None) -> Command:
     """``7`` / ``7{mt}``: rotate CW at Low speed until stopped."""
     return for_motor("7", motor)
 
 
-def jog_ccw(motor: Motor | None = None) -> Command:
+def jog_ccw(motor: int | None = None) -> Command:
     """``8`` / ``8{mt}``: rotate CCW at Low speed until stopped."""
     return for_motor("8", motor)
 
