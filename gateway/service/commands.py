@@ -28,8 +28,8 @@ from typing import Protocol
 
 from gateway.bus.requests import Outcome, ReplyKind, TransactionResult
 from gateway.errors import ConflictError, DeviceError, InvalidInputError
+from gateway.protocol import commands as cmd
 from gateway.protocol.models import Command
-from gateway.protocol.registry import parse
 from gateway.protocol.reply_values import ProgramState
 from gateway.protocol.spec import Effect
 from gateway.service.gateway import Gateway
@@ -76,7 +76,7 @@ _REFUSED = {
 
 
 #: The mode as the condition bits show it: clears nothing, allowed while moving (§10 9 form II).
-_MODE_READ = parse("94")
+_MODE_READ = cmd.condition_bit(4)
 
 
 def required_role(command: Command) -> Role:
@@ -180,7 +180,7 @@ class CommandRunner:
         self.check_state(ref, cmds)
         guarded = await self.limits.guard(ref, cmds, motor, field)
         result = await self.send(ref, guarded.commands, motor=guarded.motor)
-        if any(c.key in ("E{mode}", "DL") for c in cmds):
+        if any(c.form in (cmd.SET_MODE, cmd.LOAD_SETTINGS) for c in cmds):
             # The cache learns the mode from reads only (the poller reads it once, at first
             # contact): read it back after E or a DL (which loads E from the EEPROM, §10 DL)
             # so that the mode checks above see the new one (§10 9 bits 5,4).

@@ -12,6 +12,7 @@ state cache latches it as a program error). Buffers and counters are ``GR``/``GW
 from __future__ import annotations
 
 from gateway.errors import InvalidInputError
+from gateway.protocol import commands as cmd
 from gateway.protocol.program import Program, parse_program
 from gateway.protocol.registry import parse
 from gateway.protocol.reply_values import PortByte, ProgramState
@@ -30,7 +31,7 @@ from gateway.service.topology import ControllerRef
 __all__ = ["BUFFERS", "COUNTERS", "ProgramService"]
 
 #: The data buffers and counters of a program (§10 GR, GW).
-BUFFERS = ("A", "B", "C", "D", "E", "F")
+BUFFERS: tuple[cmd.ProgramBuffer, ...] = ("A", "B", "C", "D", "E", "F")
 COUNTERS = (1, 2)
 
 _STATE_NAMES = {
@@ -74,7 +75,7 @@ class ProgramService:
     async def upload(self, ref: ControllerRef, text: str, *, holder: str) -> CommandResponse:
         """Validate ``text`` (chapters 11-12) and upload it (``I`` + text + CR)."""
         program = self.check(text)
-        command = parse("I")
+        command = cmd.upload_program()
         self.runner.check_control(ref, [command])
         self.runner.check_lease(ref, [command], holder)
         self.runner.check_state(ref, [command])
@@ -86,14 +87,14 @@ class ProgramService:
 
     async def text(self, ref: ControllerRef) -> ProgramText:
         """The program in RAM, read back with ``IR``."""
-        value = value_of(ref, await self.runner.send(ref, [parse("IR")]))
+        value = value_of(ref, await self.runner.send(ref, [cmd.program_text()]))
         return _info(ref, str(value))
 
     async def run(self, ref: ControllerRef, label: str | None, *, holder: str) -> CommandResponse:
         """``G`` (from the start) or ``G{lb}`` (from the statement after ``/G{lb}``), then
         ``GSS``: its value ('1' running, '0' ended, 'E' ended by an error) is the answer."""
         if label is None:
-            command = parse("G")
+            command = cmd.run_program()
         else:
             # Built from the model, never from text: "G" + "S" would read as GS (pause).
             try:
@@ -103,7 +104,7 @@ class ProgramService:
                 raise
         # GSS right after, in the same transaction: a G the device refuses (no program, a
         # label it lacks) is still answered '>' (§9-1 注意); the state shows whether it runs.
-        result = await self.runner.run(ref, [command, parse("GSS")], holder=holder)
+        result = await self.runner.run(ref, [command, cmd.program_state()], holder=holder)
         return response_of(ref, require_done(ref, result))
 
     async def pause(self, ref: ControllerRef, *, holder: str) -> CommandResponse:
@@ -127,7 +128,7 @@ class ProgramService:
 
     async def status(self, ref: ControllerRef) -> ProgramStatus:
         """``GSS`` and ``GN``."""
-        result = await self.runner.send(ref, [parse("GSS"), parse("GN")])
+        result = await self.runner.send(ref, [cmd.program_state(), cmd.next_step()])
         state, step = value_of(ref, result, 0), value_of(ref, result, 1)
         assert isinstance(state, ProgramState)
         return ProgramStatus(
@@ -139,7 +140,9 @@ class ProgramService:
 
     async def data(self, ref: ControllerRef) -> ProgramData:
         """Every data buffer and counter (``GR{bf}``, ``GR{ct}``), in one transaction."""
-        commands = [parse(f"GR{b}") for b in BUFFERS] + [parse(f"GR{c}") for c in COUNTERS]
+        commands = [cmd.program_buffer(b) for b in BUFFERS] + [
+            cmd.program_counter(c) for c in COUNTERS
+        ]
         result = await self.runner.send(ref, commands)
         values = [value_of(ref, result, i) for i in range(len(commands))]
         buffers: dict[str, PortView] = {}
@@ -167,7 +170,7 @@ class ProgramService:
 
     async def autostart(self, ref: ControllerRef) -> Autostart:
         """``GA``: whether the program starts at power-on."""
-        value = value_of(ref, await self.runner.run(ref, parse("GA"), holder=""))
+        value = value_of(ref, await self.runner.run(ref, cmd.program_autostart(), holder=""))
         return Autostart(enabled=bool(value))
 
     async def set_autostart(

@@ -36,9 +36,9 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from gateway.errors import DeviceError, InvalidInputError
+from gateway.protocol import commands as cmd
 from gateway.protocol.models import Command
 from gateway.protocol.params import PositionFormat
-from gateway.protocol.registry import parse
 from gateway.protocol.spec import Effect
 from gateway.service.gateway import Gateway
 from gateway.service.position_format import PositionFormats, check_target, position_data
@@ -153,7 +153,7 @@ class SoftLimits:
             self._check(axis, target, fmt, command, field)
             return [command]
         if key in _DATA_ABSOLUTE or key in _DATA_RELATIVE:
-            data = await self._read(axis, "2D", "the position data (2D)")
+            data = await self._read(axis, cmd.position_data(), "the position data (2D)")
             if key in _DATA_ABSOLUTE:
                 target = data
             else:
@@ -162,15 +162,15 @@ class SoftLimits:
             return [position_data(data, fmt), command]
         if key in _ENTRY_ABSOLUTE or key in _ENTRY_RELATIVE:
             pn = int(command.params()["pn"])
-            entry = await self._read(axis, f"A{pn:03d}D", f"position table entry {pn:03d}")
+            entry = await self._read(axis, cmd.table_entry(pn), f"position table entry {pn:03d}")
             if key in _ENTRY_ABSOLUTE:
                 target = entry
             else:
                 sign = 1 if command.params()["dir"] == "+" else -1
                 target = await self._position(axis) + sign * abs(entry)
             self._check(axis, target, fmt, command, field)
-            text = f"A{pn:03d}{entry:+d}" if fmt is PositionFormat.SIGNED else f"A{pn:03d}{entry}"
-            return [parse(text, positions=fmt), command]
+            signed = fmt is PositionFormat.SIGNED
+            return [cmd.set_table_entry(pn, entry, fmt, signed=signed), command]
         raise InvalidInputError(
             f"{command.wire()!r} on axis {axis.id}: the gateway cannot know where it ends, and "
             f"the axis has soft limits",
@@ -195,11 +195,11 @@ class SoftLimits:
         state = self.gateway.state.axis(axis.loop, axis.body, axis.motor)
         if state.position is not None and not state.stale:
             return state.position
-        return await self._read(axis, f"6{axis.motor}", f"the position of {axis.id}")
+        return await self._read(axis, cmd.position(axis.motor), f"the position of {axis.id}")
 
-    async def _read(self, axis: AxisRef, text: str, what: str) -> int:
+    async def _read(self, axis: AxisRef, query: Command, what: str) -> int:
         scheduler = self.gateway.scheduler(axis.loop)
-        result = await scheduler.submit(axis.body, [parse(text)], motor=None)
+        result = await scheduler.submit(axis.body, [query], motor=None)
         value = result.value
         if not isinstance(value, int) or isinstance(value, bool):
             raise DeviceError(

@@ -46,7 +46,7 @@ from gateway.protocol.spec import Effect
 from gateway.sim import commands, error_output, stepout  # noqa: F401  (commands: handlers)
 from gateway.sim.axis import Axis, AxisEventKind
 from gateway.sim.commands.program import start_program
-from gateway.sim.dispatch import FRAMING_KEYS, HANDLERS, Refused
+from gateway.sim.dispatch import HANDLERS, Refused
 from gateway.sim.eeprom import Eeprom
 from gateway.sim.flags import Error, Flags
 from gateway.sim.memory import POSITION_TABLE_SIZE, Baud, Settings
@@ -220,7 +220,7 @@ class Controller:
             return self._reply_ack(False, event.raw)
         try:
             self._check_rules(command, now)
-            if command.key in FRAMING_KEYS:
+            if command.form.switches_framing:
                 return self._switch_framing(command, event.raw)
             value = HANDLERS[command.key](self, command, now)
         except Refused:

@@ -37,6 +37,9 @@ CASES: list[tuple[str, tuple[Any, ...], str]] = [
     ("set_position_format", (True,), "EP1"),
     ("set_position_format", (False,), "EP0"),
     ("set_position_data", (1250,), "21250"),
+    ("position_data", (), "2D"),
+    ("table_entry", (13,), "A013D"),
+    ("set_table_entry", (13, 300), "A013300"),
     ("move_to_position_data", (), "3"),
     ("move_to_position_data", (2,), "32"),
     ("move_cw", (), "4"),
@@ -154,6 +157,11 @@ REBUILD: dict[str, Callable[[Command], Command]] = {
     "EP1": lambda c: commands.set_position_format(True),
     "2{pp}": lambda c: commands.set_position_data(
         c.params()["pp"], signed=bool(getattr(c, "signed", False))
+    ),
+    "2D": lambda c: commands.position_data(),
+    "A{pn}D": lambda c: commands.table_entry(c.params()["pn"]),
+    "A{pn}{pp}": lambda c: commands.set_table_entry(
+        c.params()["pn"], c.params()["pp"], signed=bool(getattr(c, "signed", False))
     ),
     "3{mt}": lambda c: commands.move_to_position_data(_MOTOR(c)),
     "4": lambda c: commands.move_cw(),

@@ -24,15 +24,18 @@ __all__ = [
     "move_cw",
     "move_to_position_data",
     "position",
+    "position_data",
     "position_format",
     "set_position_data",
     "set_position_format",
     "set_speed",
+    "set_table_entry",
     "slow_stop",
     "speed",
     "step_ccw",
     "step_cw",
     "stop",
+    "table_entry",
 ]
 
 
@@ -63,6 +66,26 @@ def set_position_data(
     if signed is not None:
         values["signed"] = signed
     return REGISTRY.build("2{pp}", values, positions)
+
+
+def position_data() -> Command:
+    """``2D``: the position data set with ``2``."""
+    return build("2D")
+
+
+def table_entry(number: int) -> Command:
+    """``A{pn}D``: entry ``number`` (0-999) of the position table."""
+    return build("A{pn}D", pn=number)
+
+
+def set_table_entry(
+    number: int, pulses: int, positions: PositionFormat | None = None, *, signed: bool | None = None
+) -> Command:
+    """``A{pn}{pp}``: entry ``number`` of the position table; signs as ``set_position_data``."""
+    values: dict[str, object] = {"pn": number, "pp": pulses}
+    if signed is not None:
+        values["signed"] = signed
+    return REGISTRY.build("A{pn}{pp}", values, positions)
 
 
 def move_to_position_data(motor: int | None = None) -> Command:
