@@ -25,11 +25,10 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 from gateway.errors import InvalidInputError
+from gateway.protocol.command_reader import CommandFrame, RawText
 from gateway.protocol.framing import (
     EEPROM_DONE,
-    CommandFrame,
     Framing,
-    RawText,
     Series,
     encode_ack,
     encode_data,

@@ -17,7 +17,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
-from gateway.protocol.framing import CommandFrame, Framing, RawText, Series
+from gateway.protocol.command_reader import CommandFrame, RawText
+from gateway.protocol.framing import Framing, Series
 from gateway.sim.clock import RecordKind
 from gateway.sim.faults import Draw
 from gateway.sim.memory import Baud
