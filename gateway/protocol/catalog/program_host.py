@@ -6,8 +6,9 @@ the manual is ambiguous.
 
 from __future__ import annotations
 
-from gateway.protocol.params import CharChoice, Dec, HexDigit, IntChoice, Label
+from gateway.protocol.params import CharChoice, Dec, HexDigit, IntChoice
 from gateway.protocol.spec import CommandSpec, Effect, Persist, ReplyFormat, Scope, form
+from gateway.protocol.text_params import Label
 
 ACK = ReplyFormat.ACK
 BUFFER = ReplyFormat.BUFFER

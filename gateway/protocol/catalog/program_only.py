@@ -11,12 +11,10 @@ from gateway.protocol.params import (
     Dec,
     HexDigit,
     IntChoice,
-    Jump,
-    Label,
     Position,
-    Text,
 )
 from gateway.protocol.spec import CommandSpec, Effect, ReplyFormat, Scope, form
+from gateway.protocol.text_params import Jump, Label, Text
 
 NONE = ReplyFormat.NONE
 ACTION = Effect.ACTION

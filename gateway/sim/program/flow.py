@@ -12,7 +12,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
-from gateway.protocol.params import jump_count
+from gateway.protocol.text_params import jump_count
 from gateway.sim.dispatch import Refused
 from gateway.sim.flags import Error
 
