@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any, TypeVar
 from gateway.protocol.registry import REGISTRY
 
 if TYPE_CHECKING:
-    from gateway.sim.controller import Controller
+    from gateway.sim.controller_view import ControllerView
 
 __all__ = ["HANDLERS", "Handler", "Refused", "handles", "missing_handlers"]
 
@@ -28,7 +28,7 @@ class Refused(Exception):
         self.reason = reason
 
 
-Handler = Callable[["Controller", Any, float], object]
+Handler = Callable[["ControllerView", Any, float], object]
 HANDLERS: dict[str, Handler] = {}
 
 _H = TypeVar("_H", bound=Handler)

@@ -40,7 +40,7 @@ INSPECTION_BAUD = 9600
 
 
 class LaterLike(Protocol):
-    """An unsolicited message (``controller.Later``)."""
+    """An unsolicited message (``line_out.Later``)."""
 
     @property
     def at(self) -> float:
@@ -55,7 +55,7 @@ class LaterLike(Protocol):
 
 
 class ResponseLike(Protocol):
-    """What a controller answers to a frame (``controller.Response``)."""
+    """What a controller answers to a frame (``line_out.Response``)."""
 
     @property
     def reply(self) -> bytes:

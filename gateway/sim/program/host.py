@@ -19,12 +19,12 @@ from gateway.sim.dispatch import HANDLERS, Refused
 from gateway.sim.program.output import query_output
 
 if TYPE_CHECKING:
-    from gateway.sim.controller import Controller
+    from gateway.sim.controller_view import ControllerView
 
 __all__ = ["execute"]
 
 
-def execute(ctl: Controller, cmd: Any, t: float) -> None:
+def execute(ctl: ControllerView, cmd: Any, t: float) -> None:
     """Run the host command ``cmd`` as a program statement at ``t``."""
     ctl.program_rules(cmd, t)
     if cmd.form.switches_framing:

@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING
 from gateway.sim.runtime import Timer
 
 if TYPE_CHECKING:
-    from gateway.sim.controller import Controller
+    from gateway.sim.controller_view import ControllerView
 
 __all__ = [
     "MAX_CALLS",
@@ -44,12 +44,12 @@ def timer_end(timer: Timer) -> float:
     return timer.started + timer.tenths / 10
 
 
-def start_timer(ctl: Controller, tenths: int, t: float) -> None:
+def start_timer(ctl: ControllerView, tenths: int, t: float) -> None:
     """Start the internal timer for the program, without ``$B#T`` (§12 /T, /TB, /TS)."""
     ctl.rt.timer = Timer(started=t, tenths=tenths, report=False)
 
 
-def motion_end(ctl: Controller) -> float | None:
+def motion_end(ctl: ControllerView) -> float | None:
     """When the running motion (or the step of a search) ends; None if no motor turns.
 
     ``math.inf`` for a motion nothing ends by itself (a 7/8 jog without a limit in its way).
