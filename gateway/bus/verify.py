@@ -32,6 +32,7 @@ from gateway.protocol.models import Command
 from gateway.protocol.replies import ReplyValue
 from gateway.protocol.reply_values import ErrorOutput, ErrorWatch, PortByte, StatusFlags
 from gateway.protocol.spec import Effect
+from gateway.protocol.speeds import OS_MAX, SPEED_DATA_MAX
 
 __all__ = [
     "ValueCheck",
@@ -43,7 +44,11 @@ __all__ = [
 ]
 
 #: §10 OH, OL: speed data 1-16,383; §10 OS: acceleration data 1-32,767.
-_RANGES: dict[SpeedName, tuple[int, int]] = {"OH": (1, 16383), "OL": (1, 16383), "OS": (1, 32767)}
+_RANGES: dict[SpeedName, tuple[int, int]] = {
+    "OH": (1, SPEED_DATA_MAX),
+    "OL": (1, SPEED_DATA_MAX),
+    "OS": (1, OS_MAX),
+}
 
 
 @functools.cache  # command models are frozen: one model serves every read-back
