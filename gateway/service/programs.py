@@ -13,8 +13,8 @@ from __future__ import annotations
 
 from gateway.errors import InvalidInputError
 from gateway.protocol import commands as cmd
+from gateway.protocol.models import Command
 from gateway.protocol.program import Program, parse_program
-from gateway.protocol.registry import parse
 from gateway.protocol.reply_values import PortByte, ProgramState
 from gateway.service.commands import CommandRunner, require_done
 from gateway.service.ctl_models import (
@@ -58,8 +58,8 @@ class ProgramService:
     def __init__(self, runner: CommandRunner) -> None:
         self.runner = runner
 
-    async def _do(self, ref: ControllerRef, text: str, holder: str) -> CommandResponse:
-        result = await self.runner.run(ref, parse(text), holder=holder)
+    async def _do(self, ref: ControllerRef, command: Command, holder: str) -> CommandResponse:
+        result = await self.runner.run(ref, command, holder=holder)
         return response_of(ref, require_done(ref, result))
 
     def check(self, text: str) -> Program:
@@ -109,11 +109,11 @@ class ProgramService:
 
     async def pause(self, ref: ControllerRef, *, holder: str) -> CommandResponse:
         """``GS``: pause at the next statement boundary (resume with ``GC``)."""
-        return await self._do(ref, "GS", holder)
+        return await self._do(ref, cmd.pause_program(), holder)
 
     async def resume(self, ref: ControllerRef, *, holder: str) -> CommandResponse:
         """``GC``: continue a program paused with ``GS``."""
-        return await self._do(ref, "GC", holder)
+        return await self._do(ref, cmd.resume_program(), holder)
 
     async def stop(self, ref: ControllerRef, mode: str, *, holder: str) -> CommandResponse:
         """``GE`` (end at a statement boundary) or ``GES`` (at once, stopping the motor).
@@ -124,7 +124,7 @@ class ProgramService:
             scheduler = self.runner.gateway.scheduler(ref.loop)
             result = await scheduler.stop(ref.body, "GES")
             return response_of(ref, require_done(ref, result))
-        return await self._do(ref, "GE", holder)
+        return await self._do(ref, cmd.end_program(), holder)
 
     async def status(self, ref: ControllerRef) -> ProgramStatus:
         """``GSS`` and ``GN``."""
@@ -177,4 +177,4 @@ class ProgramService:
         self, ref: ControllerRef, enabled: bool, *, holder: str
     ) -> CommandResponse:
         """``GAS`` / ``GAR`` (written to the EEPROM at once, §10 GA)."""
-        return await self._do(ref, "GAS" if enabled else "GAR", holder)
+        return await self._do(ref, cmd.set_program_autostart(enabled), holder)

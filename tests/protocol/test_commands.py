@@ -90,6 +90,10 @@ CASES: list[tuple[str, tuple[Any, ...], str]] = [
     ("program_counter", (2,), "GR2"),
     ("program_autostart", (), "GA"),
     ("end_program", (), "GE"),
+    ("pause_program", (), "GS"),
+    ("resume_program", (), "GC"),
+    ("set_program_autostart", (True,), "GAS"),
+    ("set_program_autostart", (False,), "GAR"),
     ("end_program_now", (), "GES"),
 ]
 

@@ -23,11 +23,13 @@ __all__ = [
     "next_step",
     "outputs",
     "outputs_with_clr",
+    "pause_program",
     "program_autostart",
     "program_buffer",
     "program_counter",
     "program_state",
     "program_text",
+    "resume_program",
     "run_program",
     "select_motor",
     "selected_motor",
@@ -39,6 +41,7 @@ __all__ = [
     "set_echo_back",
     "set_error_mark",
     "set_mode",
+    "set_program_autostart",
     "status",
     "upload_program",
     "version",
@@ -226,3 +229,18 @@ def end_program() -> Command:
 def end_program_now() -> Command:
     """``GES``: end the running program and stop its motion."""
     return build("GES")
+
+
+def pause_program() -> Command:
+    """``GS``: pause the running program."""
+    return build("GS")
+
+
+def resume_program() -> Command:
+    """``GC``: resume a program paused with ``GS``."""
+    return build("GC")
+
+
+def set_program_autostart(on: bool) -> Command:
+    """``GAS`` (run the program at power-on) or ``GAR``; written to the EEPROM at once."""
+    return build("GAS" if on else "GAR")
