@@ -15,11 +15,10 @@ from gateway.sim.actions import stop_moving, write_eeprom
 from gateway.sim.dispatch import HANDLERS, Refused
 from gateway.sim.program import flow
 from gateway.sim.program.output import buffer_message, counter_message, text_message
-from gateway.sim.program.timing import MAX_CALLS, Wait, start_timer
+from gateway.sim.program.timing import MAX_CALLS, StatementRun, Wait, start_timer
 
 if TYPE_CHECKING:
     from gateway.sim.controller_view import ControllerView
-    from gateway.sim.program.machine import Machine
 
 __all__ = ["execute"]
 
@@ -46,7 +45,7 @@ _JUMPS = frozenset(
 _COUNTER_MAX = 65535
 
 
-def execute(m: Machine, ctl: ControllerView, cmd: Any, t: float) -> None:
+def execute(m: StatementRun, ctl: ControllerView, cmd: Any, t: float) -> None:
     """Carry out the program-only statement ``cmd`` (§12)."""
     key: str = cmd.key
     if key in _JUMPS:
@@ -91,7 +90,7 @@ def execute(m: Machine, ctl: ControllerView, cmd: Any, t: float) -> None:
         _buffer_op(ctl, cmd, t)
 
 
-def _jump(m: Machine, ctl: ControllerView, cmd: Any, t: float) -> None:
+def _jump(m: StatementRun, ctl: ControllerView, cmd: Any, t: float) -> None:
     taken, m.reads_motion = flow.condition(ctl, cmd, t)
     call = cmd.key == "/SC{jump}"
     m.pure = not call
@@ -105,7 +104,7 @@ def _jump(m: Machine, ctl: ControllerView, cmd: Any, t: float) -> None:
     m.jump_to = target
 
 
-def _timer(m: Machine, ctl: ControllerView, key: str, tenths: int, t: float) -> None:
+def _timer(m: StatementRun, ctl: ControllerView, key: str, tenths: int, t: float) -> None:
     if key == "/TS{dt}":
         m.stop_wait = tenths  # used after each NULL from now on (§12 /TS)
         return

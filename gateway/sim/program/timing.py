@@ -8,7 +8,7 @@ that message belongs to the host's ``T`` form I (§10 T).
 from __future__ import annotations
 
 from enum import Enum
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol
 
 from gateway.sim.runtime import Timer
 
@@ -18,6 +18,7 @@ if TYPE_CHECKING:
 __all__ = [
     "MAX_CALLS",
     "STEP_SECONDS",
+    "StatementRun",
     "Wait",
     "motion_end",
     "start_timer",
@@ -37,6 +38,31 @@ class Wait(Enum):
     MOTION = "motion"  # '/' (NULL): no motor turns (§12 /)
     TIMER = "timer"  # /T, and /TS after a NULL: the timer is up (§12 /T, /TS)
     UNTIL = "until"  # /WAW, /WDW: the EEPROM write has ended (§12 /WAW)
+
+
+class StatementRun(Protocol):
+    """What a statement reads and sets of the run it belongs to (``machine.Machine``): where it
+    stands, where it goes next and what it waits for. The machine acts on these after each
+    statement; the statements never drive the machine themselves, except to end it."""
+
+    labels: dict[str, int]
+    current: int  # the step being executed
+    jump_to: int | None  # set by a statement that jumps
+    pure: bool  # set by a statement that changed nothing (a jump, a label)
+    reads_motion: bool  # set by a jump whose answer changes while a motor turns
+    wait: Wait | None
+    until: float  # end of a Wait.UNTIL
+    calls: list[int]  # return steps of /SC
+    stop_wait: int  # /TS: tenths of a second after each NULL wait
+
+    @property
+    def size(self) -> int:
+        """Number of statements."""
+        ...
+
+    def end(self, ctl: ControllerView) -> None:
+        """The program ends now; GN keeps its step."""
+        ...
 
 
 def timer_end(timer: Timer) -> float:
