@@ -60,11 +60,14 @@ from gateway.protocol.commands.device import (
     version,
 )
 from gateway.protocol.commands.forms import (
+    CLEARS_ERRORS,
     CONDITION,
     CONDITION_BIT,
     ERASE_EEPROM,
     ERROR_OUTPUT_BITS,
     ERROR_OUTPUT_MASK,
+    FRAMING_QUERIES,
+    FRAMING_SETTINGS,
     LOAD_SETTINGS,
     MODE,
     OPEN_PROGRAM,
@@ -74,6 +77,8 @@ from gateway.protocol.commands.forms import (
     SELECT_MOTOR,
     SELECTED_MOTOR,
     SET_MODE,
+    SET_SIGNED_POSITIONS,
+    SET_UNSIGNED_POSITIONS,
     SPEED_STEPS,
     STATUS,
 )
@@ -102,11 +107,14 @@ from gateway.protocol.commands.motion import (
 )
 
 __all__ = [
+    "CLEARS_ERRORS",
     "CONDITION",
     "CONDITION_BIT",
     "ERASE_EEPROM",
     "ERROR_OUTPUT_BITS",
     "ERROR_OUTPUT_MASK",
+    "FRAMING_QUERIES",
+    "FRAMING_SETTINGS",
     "LOAD_SETTINGS",
     "MODE",
     "OPEN_PROGRAM",
@@ -116,6 +124,8 @@ __all__ = [
     "SELECTED_MOTOR",
     "SELECT_MOTOR",
     "SET_MODE",
+    "SET_SIGNED_POSITIONS",
+    "SET_UNSIGNED_POSITIONS",
     "SPEED_STEPS",
     "STATUS",
     "BaudCode",

@@ -13,11 +13,14 @@ from gateway.protocol.registry import REGISTRY
 from gateway.protocol.spec import Form
 
 __all__ = [
+    "CLEARS_ERRORS",
     "CONDITION",
     "CONDITION_BIT",
     "ERASE_EEPROM",
     "ERROR_OUTPUT_BITS",
     "ERROR_OUTPUT_MASK",
+    "FRAMING_QUERIES",
+    "FRAMING_SETTINGS",
     "LOAD_SETTINGS",
     "MODE",
     "OPEN_PROGRAM",
@@ -27,6 +30,8 @@ __all__ = [
     "SELECTED_MOTOR",
     "SELECT_MOTOR",
     "SET_MODE",
+    "SET_SIGNED_POSITIONS",
+    "SET_UNSIGNED_POSITIONS",
     "SPEED_STEPS",
     "STATUS",
 ]
@@ -66,4 +71,24 @@ PROGRAM_ENDS: frozenset[Form] = frozenset(REGISTRY.form(k) for k in ("GE", "GES"
 SPEED_STEPS: Mapping[SpeedName, frozenset[Form]] = {
     name: frozenset((REGISTRY.form(f"{name}I{{id}}"), REGISTRY.form(f"{name}D{{dd}}")))
     for name in ("OH", "OL", "OS")
+}
+#: ``EP1`` / ``EP0``: signed or unsigned position management.
+SET_SIGNED_POSITIONS: Form = REGISTRY.form("EP1")
+SET_UNSIGNED_POSITIONS: Form = REGISTRY.form("EP0")
+#: ``K{dt},{du}{dl}``, ``K{dt},{bt}``, ``KC``: they clear the limit and EMS bits of ``""``
+#: as a side effect, without reporting them (§10 K forms I, II, IV).
+CLEARS_ERRORS: frozenset[Form] = frozenset(
+    REGISTRY.form(k) for k in ("K{dt},{du}{dl}", "K{dt},{bt}", "KC")
+)
+
+_FRAMING_FLAGS = {"EE": "echo", "EL": "cr_after_ack", "ER": "error_mark", "SUM": "checksum"}
+#: The query of each framing switch (§10 EE, EL, ER, SUM) -> the ``Framing`` field it reads.
+FRAMING_QUERIES: Mapping[Form, str] = {
+    REGISTRY.form(name): flag for name, flag in _FRAMING_FLAGS.items()
+}
+#: Each of the eight framing switches -> the ``Framing`` field it sets, and to what.
+FRAMING_SETTINGS: Mapping[Form, tuple[str, bool]] = {
+    REGISTRY.form(f"{name}{digit}"): (flag, digit == "1")
+    for name, flag in _FRAMING_FLAGS.items()
+    for digit in "01"
 }
