@@ -64,14 +64,14 @@ ROLE_RULE = (
 
 #: Forms never sent through /commands or /raw, and why.
 _REFUSED = {
-    "I": "I opens program reception: the controller would take the next command as program "
-    "text; upload programs with PUT /controllers/{id}/program (§10 I)",
+    cmd.OPEN_PROGRAM: "I opens program reception: the controller would take the next command "
+    "as program text; upload programs with PUT /controllers/{id}/program (§10 I)",
     # ES moves one controller to another rate: the gateway would lose it (and with a rate
     # other than the loop's, the whole loop hears noise from it). A loop's rate changes as a
     # whole: every controller, then the port (POST /loops/{loop}/baud, gateway.service.baud).
-    "ES{bp}": "the baud rate of a loop is its configuration (loops[].baud), changed for every "
-    "controller and the port at once with POST /loops/{loop}/baud: changing one controller's "
-    "rate alone would cut it off the loop (§10 ES)",
+    cmd.SET_BAUD_RATE: "the baud rate of a loop is its configuration (loops[].baud), changed "
+    "for every controller and the port at once with POST /loops/{loop}/baud: changing one "
+    "controller's rate alone would cut it off the loop (§10 ES)",
 }
 
 
@@ -110,7 +110,7 @@ class CommandRunner:
 
     def refuse_unsendable(self, command: Command, field: str = "command") -> None:
         """422 for the forms the API never sends on a client's behalf (``I``)."""
-        reason = _REFUSED.get(command.key)
+        reason = _REFUSED.get(command.form)
         if reason is not None:
             raise InvalidInputError(f"{command.wire()!r}: {reason}", field=field, rule=reason)
 

@@ -29,6 +29,7 @@ __all__ = [
     "PROGRAM_STARTS",
     "SELECTED_MOTOR",
     "SELECT_MOTOR",
+    "SET_BAUD_RATE",
     "SET_MODE",
     "SET_SIGNED_POSITIONS",
     "SET_UNSIGNED_POSITIONS",
@@ -92,3 +93,5 @@ FRAMING_SETTINGS: Mapping[Form, tuple[str, bool]] = {
     for name, flag in _FRAMING_FLAGS.items()
     for digit in "01"
 }
+#: ``ES{bp}``: set the baud rate (written to the EEPROM at once).
+SET_BAUD_RATE: Form = REGISTRY.form("ES{bp}")
