@@ -92,9 +92,7 @@ async def ensure_framing(core: LoopCore, body: str) -> None:
         return
     core.set_framing(body, found, detected=True)
     if core.config.sum_at_connect and not found.checksum:
-        if found.echo:
-            await core.send(
-                body, commands.set_echo_back(False)
-            )  # SUM1 is refused while EE1 is on (§10 SUM)
+        if found.echo:  # SUM1 is refused while EE1 is on (§10 SUM)
+            await core.send(body, commands.set_echo_back(False))
         if not core.framing.get(body).echo:
             await core.send(body, commands.set_checksum(True))
