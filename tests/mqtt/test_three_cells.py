@@ -66,7 +66,9 @@ async def test_three_cells_on_one_broker(broker: Broker, central: Central, tmp_p
             f"central median {statistics.median(lags) * 1000:.1f} ms, "
             f"p99 {p99 * 1000:.1f} ms over {len(lags)} positions"
         )
-        assert p99 < 1.0, f"p99 lag {p99:.3f} s"
+        # The figure is printed (and quoted in docs/multi-cell.md); the bound is one that only
+        # a held-back or batched publication breaks, not three real-time cells on a busy host.
+        assert p99 < 2.0, f"p99 lag {p99:.3f} s"
         for cell in cells:
             seqs_in_order(central.of(cell.node))
         # the death of one: the broker tells (NDEATH with its birth's bdSeq), the others go on

@@ -22,8 +22,8 @@ from pydantic import BaseModel, Field
 
 from gateway.bus.requests import ReplyKind, TransactionResult
 from gateway.errors import ConflictError, DeviceError, InvalidInputError
+from gateway.protocol import commands as cmd
 from gateway.protocol.models import Command
-from gateway.protocol.registry import parse
 from gateway.protocol.speeds import (
     SpeedSettings,
     speed_constraint_violation,
@@ -39,9 +39,9 @@ __all__ = [
 ]
 
 #: The reads of a speed view, in the order of ``SpeedSettings`` (§10 OH, OL, OS, OC, OX).
-QUERIES = ("OH", "OL", "OS", "OC", "OX")
+QUERIES: tuple[cmd.SpeedName, ...] = ("OH", "OL", "OS", "OC", "OX")
 #: ``OC`` (the query too) is refused while a motor moves (§10 OC: 動作中 ×).
-QUERIES_WHILE_MOVING = ("OH", "OL", "OS", "OX")
+QUERIES_WHILE_MOVING: tuple[cmd.SpeedName, ...] = ("OH", "OL", "OS", "OX")
 
 
 class SpeedView(BaseModel):
@@ -142,13 +142,16 @@ def update_commands(
     # With OC = 0 the inequality holds whatever OH and OL are: clear an S-curve in use first.
     reset = current.oc > 0 and ("oh" in given or "ol" in given)
     if reset:
-        commands.append(parse("OC0"))
+        commands.append(cmd.set_speed("OC", 0))
     for name in ("oh", "ol", "os", "ox"):
         if name in given:
-            commands.append(parse(f"{name.upper()}{given[name]}"))
+            commands.append(cmd.set_speed(_SPEED_NAMES[name], given[name]))
     if ("oc" in given or reset) and not (reset and new.oc == 0):
-        commands.append(parse(f"OC{new.oc}"))
+        commands.append(cmd.set_speed("OC", new.oc))
     return new, commands
+
+
+_SPEED_NAMES: dict[str, cmd.SpeedName] = {"oh": "OH", "ol": "OL", "os": "OS", "ox": "OX"}
 
 
 def _as_dict(s: SpeedSettings) -> dict[str, int]:

@@ -16,9 +16,10 @@ from pydantic import ValidationError
 
 from gateway.bus.requests import TransactionResult
 from gateway.errors import DeviceError, InvalidInputError
+from gateway.protocol import commands as cmd
 from gateway.protocol.models import Command
 from gateway.protocol.params import PositionFormat
-from gateway.protocol.registry import REGISTRY, parse
+from gateway.protocol.registry import REGISTRY
 from gateway.protocol.reply_values import (
     InputsWithInp,
     OutputsWithClr,
@@ -145,9 +146,9 @@ class ControllerResources:
         """Both ports; in modes 0 and 1 with INP1/INP2 and CLR1/CLR2 (``CA``, ``COA``)."""
         mode = self._mode(ref)
         if mode is None:  # 94: the mode bits of 9, clear nothing (§10 9 form II)
-            mode = int(value_of(ref, await self.runner.send(ref, [parse("94")])))
+            mode = int(value_of(ref, await self.runner.send(ref, [cmd.condition_bit(4)])))
         if mode in (0, 1):
-            result = await self.runner.send(ref, [parse("CA"), parse("COA")])
+            result = await self.runner.send(ref, [cmd.inputs_with_inp(), cmd.outputs_with_clr()])
             inputs = value_of(ref, result, 0)
             outputs = value_of(ref, result, 1)
             assert isinstance(inputs, InputsWithInp) and isinstance(outputs, OutputsWithClr)
@@ -161,7 +162,7 @@ class ControllerResources:
                 clr1=outputs.clr1,
                 clr2=outputs.clr2,
             )
-        result = await self.runner.send(ref, [parse("C"), parse("CO")])
+        result = await self.runner.send(ref, [cmd.inputs(), cmd.outputs()])
         ins, outs = value_of(ref, result, 0), value_of(ref, result, 1)
         assert isinstance(ins, PortByte) and isinstance(outs, PortByte)
         return IoView(controller=ref.id, mode=mode, inputs=_port(ins), outputs=_port(outs))
@@ -203,7 +204,9 @@ class ControllerResources:
 
     async def sensor_logic(self, ref: ControllerRef, motor: int) -> SensorLogicView:
         """The sensor logic of ``motor`` (``EA`` with the motor selected first)."""
-        value = value_of(ref, await self.runner.run(ref, parse("EA"), holder="", motor=motor))
+        value = value_of(
+            ref, await self.runner.run(ref, cmd.sensor_logic(), holder="", motor=motor)
+        )
         assert isinstance(value, SensorLogic)
         return SensorLogicView(
             controller=ref.id,
@@ -225,7 +228,7 @@ class ControllerResources:
 
     async def mode(self, ref: ControllerRef) -> ModeView:
         """The operating mode, read with ``94`` (allowed while moving, clears nothing)."""
-        value = value_of(ref, await self.runner.send(ref, [parse("94")]))
+        value = value_of(ref, await self.runner.send(ref, [cmd.condition_bit(4)]))
         return ModeView(controller=ref.id, mode=int(value))
 
     async def set_mode(self, ref: ControllerRef, mode: int, *, holder: str) -> CommandResponse:

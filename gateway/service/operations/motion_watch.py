@@ -27,7 +27,7 @@ from typing import Any, Protocol
 from gateway.bus.events import BusEvent, LinkDown, ReplyObserved, TransactionDone
 from gateway.bus.requests import Outcome
 from gateway.bus.state_types import Change
-from gateway.protocol.registry import parse
+from gateway.protocol import commands as cmd
 from gateway.protocol.reply_values import StatusFlags
 from gateway.protocol.spec import Effect
 from gateway.service.operations.types import FINAL, Operation, OperationError, OperationState
@@ -133,7 +133,7 @@ class MotionWatch:
         elif isinstance(event, ReplyObserved) and op.armed:
             if isinstance(event.value, StatusFlags):
                 self._status(op, event.value)
-            elif op.ending is not None and event.command.key in ("6", "6{mt}"):
+            elif op.ending is not None and event.command.form.reads_position:
                 motor = event.command.motor or event.motor
                 if motor == op.motor and isinstance(event.value, int) and not op.ending.done():
                     op.ending.set_result(event.value)
@@ -239,7 +239,7 @@ class MotionWatch:
         """The status and the position of ``op``'s axis, read now."""
         try:
             result = await self.gateway.scheduler(op.axis.loop).submit(
-                op.axis.body, [parse(""), parse(f"6{op.motor}")]
+                op.axis.body, [cmd.status(), cmd.position(op.motor)]
             )
         except Exception as exc:
             log.info("operation %s: end not read again: %s", op.id, exc)
@@ -253,7 +253,7 @@ class MotionWatch:
     async def _read_position(self, op: Operation) -> int | None:
         try:
             result = await self.gateway.scheduler(op.axis.loop).submit(
-                op.axis.body, parse(f"6{op.motor}")
+                op.axis.body, cmd.position(op.motor)
             )
         except Exception as exc:
             log.info("operation %s: final position not read: %s", op.id, exc)
@@ -320,7 +320,7 @@ class MotionWatch:
                 task = asyncio.ensure_future(self._read_position(op))
                 self._tasks.add(task)
                 task.add_done_callback(self._tasks.discard)
-        elif rb.settled and event.command.key in ("6", "6{mt}"):
+        elif rb.settled and event.command.form.reads_position:
             motor = event.command.motor or event.motor
             if motor == op.motor and isinstance(value, int) and not isinstance(value, bool):
                 del self._unknown[key]
