@@ -53,12 +53,16 @@ def remap(path: str, text: str) -> str:
             "from gateway.bus.state_types import AxisState",
             "from gateway.service.runtime.bus_types import AxisState",
         )
-    return text.replace("install_operations", "install_health_and_metrics")
+    if "install_operations =" not in text:  # not api/health.py, which keeps the old name
+        text = text.replace("install_operations", "install_health_and_metrics")
+    return text
 
 
 def main(paths: list[str]) -> None:
     """Rewrite each file of ``paths`` in place; name those changed."""
     for path in paths:
+        if path.endswith("remap_service_imports.py"):
+            continue
         with open(path, encoding="utf-8") as file:
             text = file.read()
         new = remap(path, text)
