@@ -144,7 +144,9 @@ async def test_moving_axis_gets_15_position_reads_a_second_among_15_controllers(
     await r.until(lambda: r.state.axis(LOOP, "7", 1).moving)
     start = r.sim.now()
     await r.sim_time(start + 2.0)
-    replies = r.answered(b"$761\r", start, start + 2.0)
+    # Position reads: 6 of the selected (moving) motor, or 61 until the selection is read back.
+    end = start + 2.0
+    replies = [*r.answered(b"$76\r", start, end), *r.answered(b"$761\r", start, end)]
     assert len(replies) >= 2 * 15, f"{len(replies)} position reads in 2 simulated seconds"
     # The idle controllers are still watched: each had its status read in that window.
     for body in ALL_BODIES.replace("7", ""):
@@ -248,3 +250,55 @@ async def test_a_move_started_by_a_client_is_polled_at_once(rig: Callable[..., R
     await r.until(lambda: not r.state.axis(LOOP, "1", 2).moving, 10.0)
     await r.until(lambda: r.state.controller(LOOP, "1").status is not None)
     assert ErrorKind.COMMAND not in r.state.controller(LOOP, "1").latched
+
+
+async def test_a_watched_axis_is_read_back_to_back_with_its_status_at_5_hz(
+    rig: Callable[..., Rig],
+) -> None:
+    # Real time: the line's own speed is what is measured (9600 bps, 1 ms turnaround).
+    r = await rig("123", scale=1.0)
+    await r.identified("123")
+    # 20,000 pulses at the default 5,000 pps (OH 5000, §16): about 4 simulated seconds.
+    await move(r, "1", 1, 20000)
+    await r.until(lambda: r.state.controller(LOOP, "1").selection_confirmed)
+    start = r.sim.now()
+    await r.sim_time(start + 2.0)
+    end = start + 2.0
+    positions = [*r.answered(b"$16\r", start, end), *r.answered(b"$161\r", start, end)]
+    status = [f.time for f in r.frames(b"$1\r", since=start) if f.time < end]
+    # A position read is 16 characters and a turnaround (some 18 ms: 56 a second on a line
+    # with nothing else); the old plan read it every 50 ms (20 a second).
+    assert len(positions) >= 2 * 35, f"{len(positions)} position reads in 2 simulated seconds"
+    # The status at 5 Hz and more, evenly: the end of the move and errors are seen in time.
+    gaps = [b - a for a, b in pairwise(status)]
+    assert len(status) >= 2 * 5 and max(gaps) <= 0.25, (len(status), gaps)
+    # The idle controllers at their own period (1 s), not at the moving one's.
+    for body in "23":
+        idle = [f for f in r.frames(f"${body}\r".encode(), since=start) if f.time < end]
+        assert 1 <= len(idle) <= 3, (body, len(idle))
+    # With the selection read back, the position is read without a suffix (a character
+    # less); no F was asked for while the motor moved (it would be refused, §10 F).
+    assert r.answered(b"$16\r", start, end)
+    assert not [f for f in r.sim.log.since(0) if f.kind is RecordKind.HEARD
+                and f.data.startswith(b"$1F") and f.time >= start]  # fmt: skip
+    # The end of the move is seen, with its final position, and nothing was refused.
+    await r.until(lambda: not r.state.axis(LOOP, "1", 1).moving)
+    await r.until(lambda: r.state.axis(LOOP, "1", 1).position == 20000)
+    assert not r.state.controller(LOOP, "1").latched
+
+
+async def test_a_limit_error_during_a_watched_move_is_seen(rig: Callable[..., Rig]) -> None:
+    r = await rig("12", scale=1.0)
+    await r.identified("12")
+    await move(r, "1", 1, 20000)
+    await r.until(lambda: len(r.frames(b"$16\r")) + len(r.frames(b"$161\r")) >= 5)
+    hit = r.sim.now()
+    r.controls.sensor("1", 1, "cw_limit", True)
+    await r.until(lambda: r.state.axis(LOOP, "1", 1).limit_error)
+    # Seen by the status read within its period (5 Hz and more), the move ended with it.
+    assert r.sim.now() - hit < 0.5
+    await r.until(lambda: not r.state.axis(LOOP, "1", 1).moving)
+    stopped = r.sim.now()
+    # No position stream is left reading a motor that stands: the line goes back to the plan.
+    await r.sim_time(stopped + 1.0)
+    assert len(r.frames(b"$16\r", since=stopped + 0.2)) <= 1
