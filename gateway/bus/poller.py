@@ -138,10 +138,10 @@ class Poller:
             self._wake.set()
 
     def _online(self, body: str) -> bool | None:
-        return self._state.controller(self.loop, body).online
+        return self._state.flags(self.loop, body).online
 
     def _moving(self, body: str) -> bool:
-        return self._state.controller(self.loop, body).moving
+        return self._state.flags(self.loop, body).moving
 
     def handle(self, event: BusEvent) -> None:
         """Take one scheduler event (subscribe this to its ``EventBus``, in any order)."""
@@ -231,14 +231,14 @@ class Poller:
 
     def _schedule(self, plan: BodyPlan, job: Job, *, identified: bool = False) -> None:
         """The next due time of ``job``, from what the cache knows of the controller now."""
-        ctl = self._state.controller(self.loop, plan.body)
+        ctl = self._state.flags(self.loop, plan.body)
         self._plan.schedule(
             plan, job, self.now(), online=ctl.online, moving=ctl.moving, identified=identified
         )
 
     async def _run_job(self, plan: BodyPlan, job: Job) -> None:
         self.counts[job] += 1
-        ctl = self._state.controller(self.loop, plan.body)
+        ctl = self._state.flags(self.loop, plan.body)
         motor = ctl.selected_motor or ctl.last_moved or 1
         identified = False
         if job is Job.IDENTIFY:

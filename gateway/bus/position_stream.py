@@ -99,7 +99,7 @@ class PositionStream:
 
     def _next(self) -> Command | None:
         """The read to queue next; None once the controller is not moving (or answering)."""
-        ctl = self._state.controller(self.loop, self.body)
+        ctl = self._state.flags(self.loop, self.body)
         if not ctl.moving or ctl.online is False:
             return None
         motor = ctl.selected_motor or ctl.last_moved
@@ -120,6 +120,10 @@ class PositionStream:
                             self._scheduler.submit(self.body, [command], priority=Priority.POLL)
                         )
                     )
+                    # Identical reads queued together share one transaction (the queue's
+                    # coalescing): let an idle scheduler take this one before the next is
+                    # queued, or the two would be one read and nothing would wait behind it.
+                    await asyncio.sleep(0)
                 if not queued:
                     return
                 result = await queued.popleft()
