@@ -13,12 +13,13 @@ events only by noting work for its own task, which reads the cache when it runs:
 cache or the poller hears an event first never changes what the poller does.
 
 The poller has one transaction of its plan in flight at a time; of the jobs that are due it
-runs the most urgent (the order of ``Job``), then the one due longest. Beside the plan, a moving
-controller's position is read back to back by its ``PositionStream`` (one read on the line, the
-next queued), while the plan reads its status every ``moving_period`` (5 Hz and more: the end
-of the move, limits, EMS) and the idle controllers at their own periods, in turn with the
-stream's reads. Operator commands (a higher priority) always go first. Periods are device
-seconds; the scheduler's ``time_scale`` maps them to host time for the simulator.
+runs the most urgent (the order of ``Job``), then the one due longest. Beside the plan, a
+moving controller's position is read back to back by its ``PositionStream`` (the next read
+asked for the moment the last is answered), while the plan reads its status every
+``moving_period`` (5 Hz and more: the end of the move, limits, EMS) and the idle controllers
+at their own periods, in turn with the stream's reads. Operator commands (a higher priority)
+always go first. Periods are device seconds; the scheduler's ``time_scale`` maps them to host
+time for the simulator.
 """
 
 from __future__ import annotations

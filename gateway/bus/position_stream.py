@@ -1,11 +1,14 @@
 """The position of a moving axis, read as often as the line allows.
 
 While a motor moves, its position is what a watcher wants most often; the status ``""``
-(the end of the move, errors) is read by the poller's plan at its own rate. The stream keeps
-one position read on the line and the next one queued behind it at ``Priority.POLL``: the
-scheduler starts the queued one the moment the reply in flight completes, without waiting for
-the poller's task to run, and every request of higher priority (operators, stops) still goes
-first, while the poller's other polls queue among them in turn.
+(the end of the move, errors) is read by the poller's plan at its own rate. The stream asks
+for the next position read the moment the last one is answered, at ``Priority.POLL``: every
+request of higher priority (operators, stops) still goes first, and the poller's other polls
+(the moving controller's status, the idle controllers) take their turn between its reads.
+
+One read at a time: a second one queued behind it would be coalesced with the first by the
+scheduler's queue (identical queries queued together share one transaction), and in process
+the line showed no gain from it (position reads 18.5 ms apart either way, 17.7 ms ideal).
 
 The read is ``6`` without a suffix when the selection is confirmed both in the cache and in
 the scheduler and is the moving motor (four characters instead of five: the line's time);
@@ -21,7 +24,6 @@ import asyncio
 import contextlib
 import functools
 import logging
-from collections import deque
 from collections.abc import Sequence
 from typing import Protocol
 
@@ -33,9 +35,6 @@ from gateway.protocol.registry import parse
 __all__ = ["PositionStream", "Submitter"]
 
 log = logging.getLogger("gateway.bus")
-
-#: reads handed to the scheduler at once: one on the line, one waiting to follow it
-DEPTH = 2
 
 
 class Submitter(Protocol):
@@ -90,7 +89,7 @@ class PositionStream:
             self._task = asyncio.create_task(self._run(), name=f"positions {self.loop}/{self.body}")
 
     async def stop(self) -> None:
-        """Stop reading; the queued read is withdrawn."""
+        """Stop reading; a read still waiting in the queue is withdrawn."""
         task, self._task = self._task, None
         if task is not None and not task.done():
             task.cancel()
@@ -111,29 +110,11 @@ class PositionStream:
         return position_read(motor)
 
     async def _run(self) -> None:
-        queued: deque[asyncio.Future[TransactionResult]] = deque()
         try:
-            while True:
-                while len(queued) < DEPTH and (command := self._next()) is not None:
-                    queued.append(
-                        asyncio.ensure_future(
-                            self._scheduler.submit(self.body, [command], priority=Priority.POLL)
-                        )
-                    )
-                    # Identical reads queued together share one transaction (the queue's
-                    # coalescing): let an idle scheduler take this one before the next is
-                    # queued, or the two would be one read and nothing would wait behind it.
-                    await asyncio.sleep(0)
-                if not queued:
-                    return
-                result = await queued.popleft()
+            while (command := self._next()) is not None:
+                result = await self._scheduler.submit(self.body, [command], priority=Priority.POLL)
                 if result.results[0].kind in (ReplyKind.TIMEOUT, ReplyKind.SKIPPED):
                     return  # silent: the poller's status read decides what that means
                 self.reads += 1
         except BusError as exc:  # the line went down, a deadline passed: the poller restarts it
             log.debug("loop %s: position stream of %s ended: %s", self.loop, self.body, exc)
-        finally:
-            for future in queued:
-                if future.done() and not future.cancelled():
-                    future.exception()  # retrieved: the stream has ended anyway
-                future.cancel()
