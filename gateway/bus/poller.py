@@ -13,13 +13,13 @@ events only by noting work for its own task, which reads the cache when it runs:
 cache or the poller hears an event first never changes what the poller does.
 
 The poller has one transaction of its plan in flight at a time; of the jobs that are due it
-runs the most urgent (the order of ``Job``), then the one due longest. Beside the plan, a
-moving controller's position is read back to back by its ``PositionStream`` (the next read
-asked for the moment the last is answered), while the plan reads its status every
-``moving_period`` (5 Hz and more: the end of the move, limits, EMS) and the idle controllers
-at their own periods, in turn with the stream's reads. Operator commands (a higher priority)
-always go first. Periods are device seconds; the scheduler's ``time_scale`` maps them to host
-time for the simulator.
+runs the most urgent (the order of ``Job``), then the one due longest. Beside the plan, the
+loop's ``PositionStream`` reads the moving axes' positions back to back, in turn (the next
+read asked for the moment the last is answered), while the plan reads a moving controller's
+status every ``moving_period`` (5 Hz and more: the end of the move, limits, EMS) and the idle
+controllers at their own periods, between the stream's reads (a due poll waits for one at
+most). Operator commands (a higher priority) always go first. Periods are device seconds;
+the scheduler's ``time_scale`` maps them to host time for the simulator.
 """
 
 from __future__ import annotations
@@ -92,8 +92,8 @@ class Poller:
         self._watch: set[str] = set()  # controllers seen starting to move
         #: polls made, per job (diagnostics)
         self.counts: dict[Job, int] = dict.fromkeys(Job, 0)
-        #: per controller, its moving axis's position read back to back
-        self._streams = {b: PositionStream(scheduler, state, loop, b) for b in self._plan.bodies}
+        #: the moving axes' positions, read back to back in turn
+        self._positions = PositionStream(scheduler, state, loop)
         self._plan.restart()
         state.listen(self._on_change)
 
@@ -124,13 +124,12 @@ class Poller:
             task.cancel()
             with contextlib.suppress(asyncio.CancelledError):
                 await task
-        for stream in self._streams.values():
-            await stream.stop()
+        await self._positions.stop()
 
     @property
     def position_reads(self) -> int:
         """Position reads of moving axes answered (diagnostics)."""
-        return sum(s.reads for s in self._streams.values())
+        return self._positions.reads
 
     def poll_now(self, body: str) -> None:
         """Read ``body``'s status at once (a move started or a stop was sent)."""
@@ -187,17 +186,18 @@ class Poller:
         self._back.clear()
         for body in sorted(self._poll_soon):
             self._plan.poll_now(body, self._online(body))
+        # A move seen starting: its positions from now on, unless its status is to be read
+        # at once (a move or stop sent): that read goes first and starts them when answered.
+        for body in sorted(self._watch - self._poll_soon):
             self._stream(body)
         self._poll_soon.clear()
-        for body in sorted(self._watch):
-            self._stream(body)
         self._watch.clear()
 
     def _stream(self, body: str) -> None:
         """Read the position of ``body``'s moving axis back to back (if it moves and the
         link is up; a stream ends by itself when the move ends)."""
         if self._link_up.is_set() and self._task is not None:
-            self._streams[body].start()
+            self._positions.watch(body)
 
     # ------------------------------------------------------------------ the jobs
 

@@ -1,10 +1,13 @@
 """The position of a moving axis, read as often as the line allows.
 
 While a motor moves, its position is what a watcher wants most often; the status ``""``
-(the end of the move, errors) is read by the poller's plan at its own rate. The stream asks
-for the next position read the moment the last one is answered, at ``Priority.POLL``: every
-request of higher priority (operators, stops) still goes first, and the poller's other polls
-(the moving controller's status, the idle controllers) take their turn between its reads.
+(the end of the move, errors) is read by the poller's plan at its own rate. The stream of a
+loop asks for the next position read the moment the last one is answered, at
+``Priority.POLL``, the moving axes in turn: every request of higher priority (operators,
+stops) still goes first, and as the queue is first come first served within a priority and
+both the stream and the poller have one request at a time, a poll of the plan that is due
+(a moving controller's status, an idle controller) waits for one position read at most.
+The plan keeps at least half the line when it needs it; the stream has the rest.
 
 One read at a time: a second one queued behind it would be coalesced with the first by the
 scheduler's queue (identical queries queued together share one transaction), and in process
@@ -13,9 +16,9 @@ the line showed no gain from it (position reads 18.5 ms apart either way, 17.7 m
 The read is ``6`` without a suffix when the selection is confirmed both in the cache and in
 the scheduler and is the moving motor (four characters instead of five: the line's time);
 otherwise ``6{mt}``, which the old plan read while moving. No ``F`` is ever asked for: it is
-refused while a motor moves (§10 F). The stream ends when the cache no longer has the
-controller moving or answering, and at the first read nobody answered (the poller's status
-read decides whether the controller is silent; a stream must not fill the line with time-outs).
+refused while a motor moves (§10 F). A controller leaves the stream when the cache no
+longer has it moving or answering, and at the first read of it nobody answered (the poller's
+status read decides whether it is silent, and puts it back when it answers moving).
 """
 
 from __future__ import annotations
@@ -68,53 +71,76 @@ def position_read(motor: int | None) -> Command:
 
 
 class PositionStream:
-    """Back-to-back position reads of one controller's moving axis."""
+    """Back-to-back position reads of the moving axes of one loop, in turn."""
 
-    def __init__(self, scheduler: Submitter, state: StateCache, loop: str, body: str) -> None:
+    def __init__(self, scheduler: Submitter, state: StateCache, loop: str) -> None:
         self._scheduler = scheduler
         self._state = state
         self.loop = loop
-        self.body = body
         self._task: asyncio.Task[None] | None = None
+        #: the controllers whose moving axis is read, in turn (insertion order)
+        self._watched: dict[str, None] = {}
         self.reads = 0  # reads answered (diagnostics)
 
     @property
-    def running(self) -> bool:
-        """Whether the stream is reading."""
-        return self._task is not None and not self._task.done()
+    def watched(self) -> list[str]:
+        """The controllers whose moving axis is read now."""
+        return list(self._watched)
 
-    def start(self) -> None:
-        """Start reading (no-op while it reads); it ends by itself when the move ends."""
-        if not self.running and self._next() is not None:
-            self._task = asyncio.create_task(self._run(), name=f"positions {self.loop}/{self.body}")
+    def watch(self, body: str) -> None:
+        """Read ``body``'s moving axis (no-op unless it moves); it leaves the stream by
+        itself when its move ends, or when a read of it goes unanswered."""
+        if self._next(body) is None:
+            return
+        self._watched[body] = None
+        if self._task is None or self._task.done():
+            self._task = asyncio.create_task(self._run(), name=f"positions {self.loop}")
 
     async def stop(self) -> None:
         """Stop reading; a read still waiting in the queue is withdrawn."""
         task, self._task = self._task, None
+        self._watched.clear()
         if task is not None and not task.done():
             task.cancel()
             with contextlib.suppress(asyncio.CancelledError):
                 await task
 
-    def _next(self) -> Command | None:
-        """The read to queue next; None once the controller is not moving (or answering)."""
-        ctl = self._state.flags(self.loop, self.body)
+    def _next(self, body: str) -> Command | None:
+        """The read of ``body`` to ask for; None once it is not moving (or answering)."""
+        ctl = self._state.flags(self.loop, body)
         if not ctl.moving or ctl.online is False:
             return None
         motor = ctl.selected_motor or ctl.last_moved
         if motor is None:
             return None
         confirmed = ctl.selection_confirmed and ctl.selected_motor == motor
-        if confirmed and self._scheduler.selected_motor(self.body) == motor:
+        if confirmed and self._scheduler.selected_motor(body) == motor:
             return position_read(None)
         return position_read(motor)
 
+    def _turn(self) -> tuple[str, Command] | None:
+        """The next controller in turn and its read; those that stopped leave the stream."""
+        while self._watched:
+            body = next(iter(self._watched))
+            del self._watched[body]
+            command = self._next(body)
+            if command is not None:
+                self._watched[body] = None  # to the back of the turn
+                return body, command
+        return None
+
     async def _run(self) -> None:
-        try:
-            while (command := self._next()) is not None:
-                result = await self._scheduler.submit(self.body, [command], priority=Priority.POLL)
-                if result.results[0].kind in (ReplyKind.TIMEOUT, ReplyKind.SKIPPED):
-                    return  # silent: the poller's status read decides what that means
+        while (turn := self._turn()) is not None:
+            body, command = turn
+            try:
+                result = await self._scheduler.submit(body, [command], priority=Priority.POLL)
+            except BusError as exc:  # the line went down, a deadline passed
+                log.debug("loop %s: position read of %s failed: %s", self.loop, body, exc)
+                self._watched.pop(body, None)  # the poller's status read brings it back
+                continue
+            if result.results[0].kind in (ReplyKind.TIMEOUT, ReplyKind.SKIPPED):
+                # Silent: the poller's status read decides what that means; a stream must
+                # not fill the line with time-outs.
+                self._watched.pop(body, None)
+            else:
                 self.reads += 1
-        except BusError as exc:  # the line went down, a deadline passed: the poller restarts it
-            log.debug("loop %s: position stream of %s ended: %s", self.loop, self.body, exc)

@@ -67,6 +67,12 @@ class Rig:
             if r.kind is RecordKind.HEARD and r.data == text and r.time >= since
         ]
 
+    def frames_in(self, start: float, end: float) -> list[LineRecord]:
+        """Every frame the controllers heard in [start, end)."""
+        return [
+            r for r in self.sim.log.since(0) if r.kind is RecordKind.HEARD and start <= r.time < end
+        ]
+
     def answered(self, text: bytes, start: float, end: float) -> list[LineRecord]:
         """Replies that reached the host in [start, end) to frames ``text``."""
         refs = {r.ref for r in self.frames(text)}
@@ -266,9 +272,11 @@ async def test_a_watched_axis_is_read_back_to_back_with_its_status_at_5_hz(
     end = start + 2.0
     positions = [*r.answered(b"$16\r", start, end), *r.answered(b"$161\r", start, end)]
     status = [f.time for f in r.frames(b"$1\r", since=start) if f.time < end]
+    frames = r.frames_in(start, end)
     # A position read is 16 characters and a turnaround (some 18 ms: 56 a second on a line
-    # with nothing else); the old plan read it every 50 ms (20 a second).
-    assert len(positions) >= 2 * 35, f"{len(positions)} position reads in 2 simulated seconds"
+    # with nothing else); the old plan read it every 50 ms (20 a second, half the frames).
+    assert len(positions) >= 2 * 28, f"{len(positions)} position reads in 2 simulated seconds"
+    assert len(positions) >= 0.65 * len(frames), (len(positions), len(frames))
     # The status at 5 Hz and more, evenly: the end of the move and errors are seen in time.
     gaps = [b - a for a, b in pairwise(status)]
     assert len(status) >= 2 * 5 and max(gaps) <= 0.25, (len(status), gaps)
@@ -302,3 +310,31 @@ async def test_a_limit_error_during_a_watched_move_is_seen(rig: Callable[..., Ri
     # No position stream is left reading a motor that stands: the line goes back to the plan.
     await r.sim_time(stopped + 1.0)
     assert len(r.frames(b"$16\r", since=stopped + 0.2)) <= 1
+
+
+async def test_two_watched_axes_share_the_positions_and_keep_their_status_rate(
+    rig: Callable[..., Rig],
+) -> None:
+    r = await rig("123", scale=1.0)
+    await r.identified("123")
+    await move(r, "1", 1, 20000)
+    await move(r, "2", 1, 20000)
+    await r.until(lambda: all(r.state.controller(LOOP, b).selection_confirmed for b in "12"))
+    start = r.sim.now()
+    await r.sim_time(start + 2.0)
+    end = start + 2.0
+    for body in "12":
+        reads = [
+            *r.answered(f"${body}6\r".encode(), start, end),
+            *r.answered(f"${body}61\r".encode(), start, end),
+        ]
+        # The line's 55 exchanges a second, less the status reads, in turn between the two.
+        assert len(reads) >= 2 * 12, (body, len(reads))
+        status = [f.time for f in r.frames(f"${body}\r".encode(), since=start) if f.time < end]
+        gaps = [b - a for a, b in pairwise(status)]
+        assert len(status) >= 2 * 5 and max(gaps) <= 0.25, (body, len(status), gaps)
+    idle = [f for f in r.frames(b"$3\r", since=start) if f.time < end]
+    assert 1 <= len(idle) <= 3, len(idle)
+    await r.until(lambda: not any(r.state.axis(LOOP, b, 1).moving for b in "12"))
+    await r.until(lambda: all(r.state.axis(LOOP, b, 1).position == 20000 for b in "12"))
+    assert not any(r.state.controller(LOOP, b).latched for b in "123")
