@@ -1,4 +1,4 @@
-"""The poller's plan: per controller, a set of jobs with due times (issue 4, "Poller and state").
+"""The poller's plan: per controller, a set of jobs with due times.
 
 ========== ====================================== ===============================================
 job        commands                               when
@@ -96,7 +96,7 @@ class PollPlan:
         return device_seconds / self.time_scale
 
     def restart(self) -> None:
-        """Read every controller again from the device (start, link up: issue 4)."""
+        """Read every controller again from the device (start, link up)."""
         for plan in self.bodies.values():
             plan.due = {Job.IDENTIFY: 0.0}
             plan.misses, plan.deferred = 0, []

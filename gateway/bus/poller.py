@@ -1,4 +1,4 @@
-"""Adaptive background polling of one loop, at ``Priority.POLL`` (issue 4, "Poller and state").
+"""Adaptive background polling of one loop, at ``Priority.POLL``.
 
 The poller asks; the state cache learns from the scheduler's ``ReplyObserved`` events, so what
 the poller reads is latched exactly like what anyone else reads (DESIGN invariant 4). Its plan,
