@@ -93,7 +93,7 @@ class Poller:
         #: polls made, per job (diagnostics)
         self.counts: dict[Job, int] = dict.fromkeys(Job, 0)
         #: the moving axes' positions, read back to back in turn
-        self._positions = PositionStream(scheduler, state, loop)
+        self._positions = PositionStream(scheduler, state, loop, on_still=self.poll_now)
         self._plan.restart()
         state.listen(self._on_change)
 

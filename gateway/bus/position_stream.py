@@ -16,9 +16,14 @@ the line showed no gain from it (position reads 18.5 ms apart either way, 17.7 m
 The read is ``6`` without a suffix when the selection is confirmed both in the cache and in
 the scheduler and is the moving motor (four characters instead of five: the line's time);
 otherwise ``6{mt}``, which the old plan read while moving. No ``F`` is ever asked for: it is
-refused while a motor moves (§10 F). A controller leaves the stream when the cache no
-longer has it moving or answering, and at the first read of it nobody answered (the poller's
-status read decides whether it is silent, and puts it back when it answers moving).
+refused while a motor moves (§10 F).
+
+The same position read twice in a row (the axis may have stopped; the status bit says so only
+when read) makes the poller read the status at once, so the end of a move is seen within two
+position reads and a status read rather than within the status period. A controller leaves
+the stream when the cache no longer has it moving or answering, and at the first read of it
+nobody answered (the poller's status read decides whether it is silent, and puts it back when
+it answers moving).
 """
 
 from __future__ import annotations
@@ -27,7 +32,7 @@ import asyncio
 import contextlib
 import functools
 import logging
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Protocol
 
 from gateway.bus.requests import BusError, Priority, ReplyKind, TransactionResult
@@ -73,10 +78,21 @@ def position_read(motor: int | None) -> Command:
 class PositionStream:
     """Back-to-back position reads of the moving axes of one loop, in turn."""
 
-    def __init__(self, scheduler: Submitter, state: StateCache, loop: str) -> None:
+    def __init__(
+        self,
+        scheduler: Submitter,
+        state: StateCache,
+        loop: str,
+        on_still: Callable[[str], None] | None = None,
+    ) -> None:
         self._scheduler = scheduler
         self._state = state
         self.loop = loop
+        #: called with a controller whose moving axis read the same position twice in a row
+        #: (it may have stopped: the poller reads its status at once rather than at its period)
+        self._on_still = on_still
+        #: per controller in the stream, the position last read and whether it was told still
+        self._last: dict[str, tuple[object, bool]] = {}
         self._task: asyncio.Task[None] | None = None
         #: the controllers whose moving axis is read, in turn (insertion order)
         self._watched: dict[str, None] = {}
@@ -100,6 +116,7 @@ class PositionStream:
         """Stop reading; a read still waiting in the queue is withdrawn."""
         task, self._task = self._task, None
         self._watched.clear()
+        self._last.clear()
         if task is not None and not task.done():
             task.cancel()
             with contextlib.suppress(asyncio.CancelledError):
@@ -127,6 +144,7 @@ class PositionStream:
             if command is not None:
                 self._watched[body] = None  # to the back of the turn
                 return body, command
+            self._last.pop(body, None)  # its move has ended: the next one starts afresh
         return None
 
     async def _run(self) -> None:
@@ -144,3 +162,15 @@ class PositionStream:
                 self._watched.pop(body, None)
             else:
                 self.reads += 1
+                self._still(body, result.results[0].value)
+
+    def _still(self, body: str, position: object) -> None:
+        """The same position twice in a row: tell, once until it moves again."""
+        last, told = self._last.get(body, (None, False))
+        if position is not None and position == last:
+            if not told and self._on_still is not None:
+                self._on_still(body)
+            told = True
+        else:
+            told = False
+        self._last[body] = (position, told)

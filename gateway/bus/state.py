@@ -92,8 +92,9 @@ class StateCache(ChangeLog):
         self.status_since_condition: dict[tuple[str, str], frozenset[ErrorKind]] = {}
         self.counters_period = 1.0
         self._followers: list[Callable[[BusEvent], None]] = []
-        #: the ``updated`` of records whose latest reply changed nothing else (``_fold``)
-        self._fresh: dict[Any, float] = {}
+        #: the ``updated`` of controllers and axes whose latest reply changed nothing else
+        #: (``_fold``), by their keys: (loop, body) and (loop, body, motor)
+        self._fresh: dict[tuple[str, str] | tuple[str, str, int], float] = {}
 
     # ------------------------------------------------------------------ reading
     # (seq, changes_since, subscribe and listen: see ChangeLog)
@@ -123,6 +124,7 @@ class StateCache(ChangeLog):
     def snapshot(self) -> Snapshot:
         """Everything, with the sequence number to ask ``changes_since`` from next."""
         for key in list(self._fresh):
+            # (loop, body, motor): an axis; (loop, body): a controller (a loop has no reply time)
             store: dict[Any, Any] = self._axes if len(key) == 3 else self._ctls
             self._fold(store, key)
         return Snapshot(
@@ -179,13 +181,9 @@ class StateCache(ChangeLog):
         if new:
             for m in MOTORS:
                 self._axes[loop, body, m] = AxisState(m)
-        key = (loop, body)
-        if (
-            self._set(
-                self._ctls, key, (loop, body, None), lambda: ControllerState(body), now, **values
-            )
-            or new
-        ):
+        blank = lambda: ControllerState(body)  # noqa: E731
+        changed = self._set(self._ctls, (loop, body), (loop, body, None), blank, now, **values)
+        if changed or new:  # the axes follow the controller's record, not the time of a reply
             self._derive_axes(now, loop, body)
 
     def write_axis(self, now: float, loop: str, body: str, motor: int, **values: Any) -> None:

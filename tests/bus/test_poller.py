@@ -338,3 +338,23 @@ async def test_two_watched_axes_share_the_positions_and_keep_their_status_rate(
     await r.until(lambda: not any(r.state.axis(LOOP, b, 1).moving for b in "12"))
     await r.until(lambda: all(r.state.axis(LOOP, b, 1).position == 20000 for b in "12"))
     assert not any(r.state.controller(LOOP, b).latched for b in "123")
+
+
+async def test_the_end_of_a_watched_move_is_seen_two_position_reads_after_it(
+    rig: Callable[..., Rig],
+) -> None:
+    r = await rig("12", scale=1.0)
+    await r.identified("12")
+    for target in (2000, 4000, 6000):  # 2,000 pulses at 5,000 pps: 0.4 s each
+        await move(r, "1", 1, target)
+        await r.until(lambda: r.state.axis(LOOP, "1", 1).moving)
+        await r.until(lambda: not r.state.axis(LOOP, "1", 1).moving)
+        # The first reply on the line that showed the final position, and the status
+        # reply that showed the motor stopped: the status was read at once, not at its
+        # next period (0.18 s).
+        final = f">$1{target:08d}\r".encode()
+        reached = min(x.time for x in r.sim.log.since(0)
+                      if x.kind is RecordKind.REPLY and x.data == final)  # fmt: skip
+        status = r.answered(b"$1\r", reached, float("inf"))
+        stopped = min(x.time for x in status if x.data == b">$10\r")
+        assert stopped - reached <= 0.08, (target, stopped - reached)
