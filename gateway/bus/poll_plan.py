@@ -5,7 +5,8 @@ job        commands                               when
 ========== ====================================== ===============================================
 status     ``""`` (moving, unconfirmed            ``moving_period`` while a motor moves (5.5 Hz),
            selection: ``""`` ``97``)              else ``idle_period``; at once after a move
-                                                  starts or a stop was sent
+                                                  starts or a stop was sent, and when the
+                                                  moving axis's position repeats
 settle     ``6{mt}`` ``CLM{mt}``                  at once when a move has ended (final position)
 sensors    ``CLM1`` ``CLM2``; moving: ``CL``      ``sensor_period``
 conditions ``90`` ``96`` ``GSS``                  ``condition_period`` (single bits clear nothing,
