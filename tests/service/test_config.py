@@ -56,7 +56,7 @@ def test_the_deploy_example_ships_no_working_token_and_says_what_it_holds(
 def test_defaults_of_a_minimal_file() -> None:
     config = parse_config(MINIMAL)
     loop = config.loops[0]
-    assert loop.timeouts.nak_retries == 3 and loop.poll.moving_period == 0.05
+    assert loop.timeouts.nak_retries == 3 and loop.poll.moving_period == 0.18
     assert config.security.tokens == [] and config.audit_log is None
 
 

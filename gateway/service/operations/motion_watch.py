@@ -1,13 +1,14 @@
 """How the end of a motion is seen, for ``Operations``.
 
 The end of a motion is seen in the status reads (``""``) that follow the send: the poller
-reads ``""`` every ``moving_period`` while a motor moves, and the scheduler publishes
+reads ``""`` every ``moving_period`` while a motor moves (its position back to back, between
+the status reads), and the scheduler publishes
 every reply, whoever asked. ``""`` clears its error bits on the device (§10 "" 注意点), so the
 errors are taken from the reads themselves: a limit error or an emergency stop reported after
 the send makes the operation ``failed``, as does a command error before the motor was ever
 seen moving (the controller ignored the command, §9-1 注意). The final position is the next
-position read (``6{mt}``: the poller reads it in the same transaction as the ``""`` that saw
-the end), or a read of our own when none comes.
+position read (the poller's position stream reads it again once a ``""`` has seen the end),
+or a read of our own when none comes.
 
 Watching the events rather than state changes: the cache publishes a field only when it moves,
 so a move too short for any read to see it moving would change nothing there. The events come
