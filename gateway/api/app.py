@@ -149,9 +149,7 @@ def create_app(gateway: Gateway, *, auth: AuthConfig) -> FastAPI:
     # carry the CORS headers too.
     # Innermost: the plain cached read of an axis, answered without routing (every layer
     # outside still applies to it); anything else it hands on.
-    app.add_middleware(
-        AxisReadPath, gateway=gateway, prefix=API_PREFIX, route=routes_axes.read_route()
-    )
+    app.add_middleware(AxisReadPath, gateway=gateway, prefix=API_PREFIX)
     install_problem_handlers(app)
     install_security(app, auth)
     install_idempotency(app)

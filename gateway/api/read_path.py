@@ -28,10 +28,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from fastapi import FastAPI
+from fastapi.routing import APIRoute
 from starlette.routing import BaseRoute
 from starlette.types import ASGIApp, Receive, Scope, Send
 
-from gateway.api.security import auth_of_scope, bearer_of_headers
+from gateway.api import routes_axes
+from gateway.api.security import api_routes, auth_of_scope, bearer_of_headers
 from gateway.bus.state_types import AxisState
 from gateway.errors import NotFoundError
 from gateway.service.control import ControlView
@@ -39,7 +42,19 @@ from gateway.service.gateway import Gateway
 from gateway.service.topology import AxisRef
 from gateway.service.views import axis_view
 
-__all__ = ["AxisReadPath"]
+__all__ = ["AxisReadPath", "read_route"]
+
+
+def read_route(app: object) -> BaseRoute | None:
+    """The route of ``routes_axes.get_axis`` as ``app`` serves it (what FastAPI puts in
+    ``scope["route"]``), found the way the metrics find templates (``api_routes``)."""
+    if not isinstance(app, FastAPI):
+        return None
+    for route in api_routes(app):
+        original = route.original
+        if isinstance(original, APIRoute) and original.endpoint is routes_axes.get_axis:
+            return original
+    return None
 
 
 @dataclass(frozen=True)
@@ -56,11 +71,11 @@ class _Encoded:
 class AxisReadPath:
     """Answer ``GET {prefix}/axes/{id}`` (no query) from the cached, encoded view."""
 
-    def __init__(self, app: ASGIApp, gateway: Gateway, prefix: str, route: BaseRoute) -> None:
+    def __init__(self, app: ASGIApp, gateway: Gateway, prefix: str) -> None:
         self.app = app
         self.gateway = gateway
         self.start = f"{prefix}/axes/"
-        self.route = route  # the routed read's, for the metrics' template
+        self.route: BaseRoute | None = None  # the routed read's, for the metrics' template
         self._encoded: dict[str, _Encoded] = {}
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
@@ -68,7 +83,7 @@ class AxisReadPath:
         if scope["type"] == "http" and scope["method"] == "GET" and not scope["query_string"]:
             ident = self._ident(scope)
             encoded = None if ident is None else self._answer(scope, ident)
-            if encoded is not None:
+            if encoded is not None and self._route(scope) is not None:
                 scope["route"] = self.route
                 # A copy: the layers outside add their headers to the list they are given.
                 headers = list(encoded.headers)
@@ -76,6 +91,12 @@ class AxisReadPath:
                 await send({"type": "http.response.body", "body": encoded.body})
                 return
         await self.app(scope, receive, send)
+
+    def _route(self, scope: Scope) -> BaseRoute | None:
+        # Found at the first read, when the app's routes are all in place.
+        if self.route is None:
+            self.route = read_route(scope.get("app"))
+        return self.route
 
     def _ident(self, scope: Scope) -> str | None:
         path: str = scope["path"]

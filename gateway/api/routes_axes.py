@@ -15,7 +15,6 @@ from __future__ import annotations
 from typing import Annotated
 
 from fastapi import APIRouter, Body, Depends, Path, Query, Request, Response
-from fastapi.routing import APIRoute
 from starlette.routing import NoMatchFound
 
 from gateway.api.audit import audit_note
@@ -41,7 +40,7 @@ from gateway.service.operations import Operation, Operations
 from gateway.service.roles import Role
 from gateway.service.views import AxisView
 
-__all__ = ["read_route", "router"]
+__all__ = ["router"]
 
 router = APIRouter(tags=["axes"], responses=PROBLEM_RESPONSES)
 
@@ -96,11 +95,6 @@ async def get_axis(
 ) -> AxisView:
     """One axis as cached, or read now with ``fresh=true``."""
     return await axes.fresh(id) if fresh else axes.view(id)
-
-
-def read_route() -> APIRoute:
-    """The route of ``get_axis``, the read ``gateway.api.read_path`` answers when cached."""
-    return next(r for r in router.routes if isinstance(r, APIRoute) and r.endpoint is get_axis)
 
 
 # ---------------------------------------------------------------------- motion

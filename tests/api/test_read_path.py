@@ -12,7 +12,6 @@ import pytest
 from starlette.types import Receive, Scope, Send
 
 from gateway.api.read_path import AxisReadPath
-from gateway.api.routes_axes import read_route
 from gateway.api.security import AuthConfig, bearer_of_headers
 from gateway.bus.state_types import AxisState
 from gateway.service.simulated import SIM_LOOP
@@ -141,11 +140,7 @@ async def test_the_layer_answers_only_a_plain_read_of_a_known_axis_by_a_known_ca
     api: Api,
 ) -> None:
     routed = _Routed()
-    layer = AxisReadPath(routed, api.gateway, "/api/v1", read_route())
-
-    class _App:  # what the layer reads of the app: its auth (install_security)
-        class state:
-            auth = api.app.state.auth
+    layer = AxisReadPath(routed, api.gateway, "/api/v1")
 
     async def call(path: str, query: bytes = b"", headers: Any = ()) -> tuple[int, bytes]:
         sent: list[dict[str, Any]] = []
@@ -156,7 +151,7 @@ async def test_the_layer_answers_only_a_plain_read_of_a_known_axis_by_a_known_ca
             "root_path": "",
             "query_string": query,
             "headers": list(headers),
-            "app": _App(),
+            "app": api.app,  # its auth (install_security) and routes
         }
 
         async def receive() -> dict[str, Any]:
