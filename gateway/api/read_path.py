@@ -39,6 +39,7 @@ from gateway.bus.state_types import AxisState
 from gateway.errors import NotFoundError
 from gateway.service.control import ControlView
 from gateway.service.gateway import Gateway
+from gateway.service.roles import Role
 from gateway.service.topology import AxisRef
 from gateway.service.views import axis_view
 
@@ -111,8 +112,10 @@ class AxisReadPath:
 
     def _answer(self, scope: Scope, ident: str) -> _Encoded | None:
         """The encoded view of ``ident``; None when the routed read must answer."""
-        # Any role may read; who is not let in gets the routed read's 401.
-        if auth_of_scope(scope).authenticate(bearer_of_headers(scope), "") is None:
+        # Who is not let in (no token, an unknown one, a role below viewer) gets the routed
+        # read's problem.
+        principal = auth_of_scope(scope).authenticate(bearer_of_headers(scope), "")
+        if principal is None or not principal.role.allows(Role.VIEWER):
             return None
         gateway = self.gateway
         try:
