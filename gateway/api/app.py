@@ -37,6 +37,7 @@ from gateway.api.health import install_operations
 from gateway.api.idempotency import install_idempotency
 from gateway.api.openapi_docs import install_openapi_docs, operation_id
 from gateway.api.problems import install_problem_handlers
+from gateway.api.read_path import AxisReadPath
 from gateway.api.redaction import install_log_redaction
 from gateway.api.security import AuthConfig, install_security
 from gateway.service.axes import AxisService
@@ -142,10 +143,13 @@ def create_app(gateway: Gateway, *, auth: AuthConfig) -> FastAPI:
         app.include_router(module.router, prefix=API_PREFIX)
     ws.install_ws(app, feed)
     install_dashboard(app, API_PREFIX)
-    # Middleware added later wraps what was added before: the problem handlers innermost,
-    # then security, idempotency, the body gate (inside the audit, which records what it
-    # refuses), audit, metrics, and CORS outermost so that error responses carry the CORS
-    # headers too.
+    # Middleware added later wraps what was added before: the cached read innermost, then
+    # the problem handlers, security, idempotency, the body gate (inside the audit, which
+    # records what it refuses), audit, metrics, and CORS outermost so that error responses
+    # carry the CORS headers too.
+    # Innermost: the plain cached read of an axis, answered without routing (every layer
+    # outside still applies to it); anything else it hands on.
+    app.add_middleware(AxisReadPath, gateway=gateway, prefix=API_PREFIX)
     install_problem_handlers(app)
     install_security(app, auth)
     install_idempotency(app)

@@ -65,6 +65,18 @@ DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 8233
 
 
+def freeze_heap() -> None:
+    """Move everything alive now out of the collector's sight (``gc.freeze``).
+
+    Called once the app has started (its lifespan ran: loops open, poller, feed, routes):
+    what exists then lives as long as the process, and a full collection that walks it again
+    and again paused the WebSocket fan-out by ~140 ms (bench/README.md). Objects made later
+    are collected as usual.
+    """
+    gc.collect()
+    gc.freeze()
+
+
 class _Server(uvicorn.Server):
     """uvicorn's server, ending with exit code 0 on SIGINT/SIGTERM like ``rc233-gateway sim``.
 
@@ -80,6 +92,7 @@ class _Server(uvicorn.Server):
         """Start, then tell systemd (``Type=notify``) that HTTP requests are served."""
         await super().startup(sockets=sockets)
         if self.started:
+            freeze_heap()
             notify("READY=1")
 
     async def shutdown(self, sockets: list[socket.socket] | None = None) -> None:
@@ -272,10 +285,6 @@ async def serve(args: argparse.Namespace) -> int:
         flush=True,
     )
     edge_node = _edge_node(gateway, config, auth, app)
-    # Everything built so far lives as long as the process: keep the collector from walking
-    # it again and again (a full pass paused WebSocket fan-out by ~140 ms, bench/README.md).
-    gc.collect()
-    gc.freeze()
     node_task = asyncio.create_task(edge_node.run()) if edge_node is not None else None
     try:
         await server.serve()
