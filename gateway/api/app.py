@@ -33,20 +33,20 @@ from gateway.api.audit import AuditLog, control_entry, install_audit, resolution
 from gateway.api.body_gate import BodyGate
 from gateway.api.dashboard import install_dashboard
 from gateway.api.hardening import HardeningMiddleware
-from gateway.api.health import install_operations
+from gateway.api.health import install_health_and_metrics
 from gateway.api.idempotency import install_idempotency
 from gateway.api.openapi_docs import install_openapi_docs, operation_id
 from gateway.api.problems import install_problem_handlers
 from gateway.api.read_path import AxisReadPath
 from gateway.api.redaction import install_log_redaction
 from gateway.api.security import AuthConfig, install_security
-from gateway.service.axes import AxisService
+from gateway.service.axes.service import AxisService
 from gateway.service.baud import BaudChanger
-from gateway.service.controllers import ControllerService
+from gateway.service.controllers.service import ControllerService
 from gateway.service.feed import Feed
-from gateway.service.gateway import Gateway
 from gateway.service.leases import Leases
-from gateway.service.operations import Operations
+from gateway.service.operations.registry import Operations
+from gateway.service.runtime.runtime import Runtime
 from gateway.service.stops import StopAll
 
 __all__ = ["API_PREFIX", "create_app"]
@@ -75,7 +75,7 @@ REST and WebSocket access to RORZE RC-233 controllers on RS-232C loops.
 """
 
 
-def create_app(gateway: Gateway, *, auth: AuthConfig) -> FastAPI:
+def create_app(gateway: Runtime, *, auth: AuthConfig) -> FastAPI:
     """The application serving ``gateway`` with ``auth`` (tokens, or no-auth mode)."""
     audit = AuditLog(gateway.config.audit_log)
     leases = Leases()
@@ -155,7 +155,7 @@ def create_app(gateway: Gateway, *, auth: AuthConfig) -> FastAPI:
     install_idempotency(app)
     app.add_middleware(BodyGate)
     install_audit(app, audit)
-    install_operations(app, gateway)
+    install_health_and_metrics(app, gateway)
     install_openapi_docs(app)
     security = gateway.config.security
     closed = ([] if security.open_metrics else ["/metrics"]) + (

@@ -19,7 +19,7 @@ from gateway.api.metrics import CONTENT_TYPE, HttpMetricsMiddleware, Metrics, Me
 from gateway.api.problems import PROBLEM_MEDIA_TYPE, Problem, problem_response, problem_type
 from gateway.service.runtime.bus_types import LinkState
 
-__all__ = ["Health", "Readiness", "install_health_and_metrics", "install_operations", "router"]
+__all__ = ["Health", "Readiness", "install_health_and_metrics", "router"]
 
 router = APIRouter(tags=["operations"])
 
@@ -128,7 +128,3 @@ def install_health_and_metrics(
     app.include_router(router)
     return metrics
 
-
-#: The old name, kept only while ``api/app.py`` (edited on another branch) calls it: it
-#: installed more than "operations". Delete once app.py names install_health_and_metrics.
-install_operations = install_health_and_metrics

@@ -35,11 +35,11 @@ from starlette.types import ASGIApp, Receive, Scope, Send
 
 from gateway.api import routes_axes
 from gateway.api.security import api_routes, auth_of_scope, bearer_of_headers
-from gateway.bus.state_types import AxisState
 from gateway.errors import NotFoundError
 from gateway.service.control import ControlView
-from gateway.service.gateway import Gateway
 from gateway.service.roles import Role
+from gateway.service.runtime.bus_types import AxisState
+from gateway.service.runtime.runtime import Runtime
 from gateway.service.topology import AxisRef
 from gateway.service.views import axis_view
 
@@ -72,7 +72,7 @@ class _Encoded:
 class AxisReadPath:
     """Answer ``GET {prefix}/axes/{id}`` (no query) from the cached, encoded view."""
 
-    def __init__(self, app: ASGIApp, gateway: Gateway, prefix: str) -> None:
+    def __init__(self, app: ASGIApp, gateway: Runtime, prefix: str) -> None:
         self.app = app
         self.gateway = gateway
         self.start = f"{prefix}/axes/"

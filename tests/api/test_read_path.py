@@ -13,8 +13,8 @@ from starlette.types import Receive, Scope, Send
 
 from gateway.api.read_path import AxisReadPath
 from gateway.api.security import AuthConfig, bearer_of_headers
-from gateway.bus.state_types import AxisState
-from gateway.service.simulated import SIM_LOOP
+from gateway.service.runtime.bus_types import AxisState
+from gateway.service.runtime.simulated import SIM_LOOP
 
 from .sim_app import Api, auth, json_of, running_app
 from .test_metrics import parse_exposition, value

@@ -16,7 +16,7 @@ from gateway.bus.state import StateCache
 from gateway.service.config import WsSettings
 from gateway.service.events import ServiceEvents
 from gateway.service.feed import Feed, FeedClient
-from gateway.service.simulated import simulated_config
+from gateway.service.runtime.simulated import simulated_config
 from gateway.service.topology import Topology
 
 from .conftest import (
