@@ -2,7 +2,7 @@
 
 A server process runs the real app (``create_app``) on an in-process simulated loop (three
 controllers, real-time line timing, polling as in production) under uvicorn on 127.0.0.1;
-this process is the clients. Two figures (issue 5, "Benchmark"):
+this process is the clients. Two figures:
 
 * ``http``: requests per second of ``GET /api/v1/axes/{id}`` (the cached state, no line
   traffic) against ``GET /api/v1/bench/trivial`` (a route that returns a constant) on the

@@ -4,9 +4,9 @@
 routers read them from there) and mounts every router under ``/api/v1``; ``/healthz``,
 ``/readyz`` and ``/metrics`` stay at the root for probes and scrapers; the browser dashboard is
 served at ``/`` and the API docs at ``/api/v1/docs`` from the package's own files
-(``gateway.api.dashboard``). The app's lifespan
-starts the gateway's loops and, on shutdown, stops accepting requests, lets each loop's
-transaction in flight finish and closes the ports (issue 5, "Graceful shutdown").
+(``gateway.api.dashboard``). The app's lifespan starts the gateway's loops and, on shutdown,
+stops accepting requests, lets each loop's transaction in flight finish (a move half-sent is
+worse than one refused) and closes the ports.
 """
 
 from __future__ import annotations

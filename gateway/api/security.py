@@ -1,4 +1,4 @@
-"""Bearer tokens and roles (issue 5, "Security"): who is calling, and may they.
+"""Bearer tokens and roles : who is calling, and may they.
 
 Tokens are stored only as SHA-256 hex digests (``hash_token``; config ``security.tokens``),
 each with a name (what the audit log records) and a role. Roles are ordered: viewer (read,

@@ -1,4 +1,4 @@
-"""The WebSocket ``/api/v1/ws``: the feed (``gateway.service.feed``) to dashboards (issue 5).
+"""The WebSocket ``/api/v1/ws``: the feed (``gateway.service.feed``) to dashboards.
 
 One connection, one feed client. Decisions (see ``ws_messages.CLOSE_CODES``):
 

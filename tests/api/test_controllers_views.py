@@ -1,4 +1,4 @@
-"""GET /controllers, /controllers/{id} (cached, or fresh) (issue 5)."""
+"""GET /controllers, /controllers/{id} (cached, or fresh)."""
 
 from __future__ import annotations
 

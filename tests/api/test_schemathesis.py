@@ -1,4 +1,4 @@
-"""schemathesis against openapi.json: no 5xx, no response that breaks the schema (issue 5).
+"""schemathesis against openapi.json: no 5xx, no response that breaks the schema.
 
 The real app runs on a real uvicorn server (a thread with its own event loop) on an
 in-process simulated loop; schemathesis generates requests for every operation of the
