@@ -23,6 +23,17 @@ def test_callbacks_get_every_event_in_order() -> None:
     assert len(seen) == 3
 
 
+def test_a_first_subscriber_runs_before_those_that_subscribed_earlier() -> None:
+    # The state cache subscribes first: every other subscriber reads what the event taught it.
+    bus: EventBus[BusEvent] = EventBus()
+    order: list[str] = []
+    bus.subscribe(lambda _e: order.append("early"))
+    bus.subscribe(lambda _e: order.append("cache"), first=True)
+    bus.subscribe(lambda _e: order.append("late"))
+    bus.publish(LinkUp(loop="a"))
+    assert order == ["cache", "early", "late"]
+
+
 async def test_a_lost_reply_to_a_read_that_clears_flags_is_not_sent_again(
     make_bus: MakeBus,
 ) -> None:
