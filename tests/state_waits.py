@@ -12,7 +12,7 @@ async def until_state(state: StateCache, check: Callable[[], bool], timeout: flo
     """Return once ``check()`` holds, re-checked after every change of ``state``; TimeoutError
     after ``timeout`` real seconds."""
     changed = asyncio.Event()
-    stop = state.listen(lambda _change: changed.set())
+    stop = state.changes.subscribe(lambda _change: changed.set())
     try:
         async with asyncio.timeout(timeout):
             while not check():

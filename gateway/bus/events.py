@@ -3,14 +3,17 @@
 Every decoded reply, including the scheduler's own read-backs (``""`` and ``9`` clear the
 device's error bits: the state cache latches the errors from these events, DESIGN.md
 invariant 4), every unsolicited message, the link going down and up, and every finished
-transaction is published. Subscribers are plain callbacks or asyncio queues; no threads.
-A callback runs inside the scheduler's task: it must not block, and what it raises is logged
+transaction is published. Subscribers are plain callbacks; no threads, no queues.
+A callback runs inside the publisher's task: it must not block, and what it raises is logged
 and otherwise ignored, so one bad subscriber cannot stop the loop.
+
+``EventBus`` is the gateway's one publish/subscribe primitive: the scheduler's events, the
+state cache's changes and the service layer's events all go through one. The one replay is
+the WebSocket feed's ring (``gateway.service.feed``).
 """
 
 from __future__ import annotations
 
-import asyncio
 import logging
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -135,17 +138,16 @@ EventT = TypeVar("EventT")
 
 
 class EventBus(Generic[EventT]):
-    """Publish events to callbacks and asyncio queues, in the order they happen.
+    """Publish events to callbacks, in the order they happen.
 
-    The loop scheduler's bus carries ``BusEvent``s; the service layer's ``ServiceEvents`` is
-    the same bus for its own events.
+    Publishing is synchronous: every callback has run when ``publish`` returns. A callback
+    that raises is logged and skipped; the publisher and the other callbacks never see it.
+    A reader that must not run inside the publisher (a socket, a slow consumer) keeps its own
+    bounded buffer and decides there what falling behind means (the feed drops the client).
     """
 
     def __init__(self) -> None:
         self._callbacks: list[Callable[[EventT], None]] = []
-        self._queues: list[asyncio.Queue[EventT]] = []
-        #: events dropped because a queue subscriber fell behind (oldest dropped first)
-        self.dropped = 0
 
     def subscribe(
         self, callback: Callable[[EventT], None], *, first: bool = False
@@ -166,30 +168,10 @@ class EventBus(Generic[EventT]):
 
         return unsubscribe
 
-    def queue(self, maxsize: int = 10_000) -> asyncio.Queue[EventT]:
-        """A queue that receives every event from now on (``unqueue`` to stop).
-
-        When it is full the oldest event is dropped (and counted in ``dropped``), so a slow
-        reader loses history, never the newest state.
-        """
-        q: asyncio.Queue[EventT] = asyncio.Queue(maxsize)
-        self._queues.append(q)
-        return q
-
-    def unqueue(self, q: asyncio.Queue[EventT]) -> None:
-        """Stop feeding ``q``."""
-        if q in self._queues:
-            self._queues.remove(q)
-
     def publish(self, event: EventT) -> None:
         """Deliver ``event`` to every subscriber now."""
         for callback in list(self._callbacks):
             try:
                 callback(event)
-            except Exception:  # one bad subscriber must not stop the loop
+            except Exception:  # one bad subscriber must not stop the publisher
                 log.exception("event subscriber %r failed on %r", callback, event)
-        for q in self._queues:
-            if q.full():
-                q.get_nowait()
-                self.dropped += 1
-            q.put_nowait(event)

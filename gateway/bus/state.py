@@ -9,31 +9,30 @@ rules shape it:
   lost because the poller or another client read it first (§10 "" 注意点, §10 9 ①, §10 GSS).
 * ``""`` and ``9`` describe the controller, not a motor; which axis shows a latched error is
   decided in ``latches`` (docs/manual-notes.md, "Latched errors and axes").
-* Every change gets the next sequence number and a timestamp, is kept in a bounded history
-  and is published to subscribers; a subscriber that fell behind asks for the changes since
-  its last number, or takes a fresh snapshot when the history no longer reaches back.
+* Every change gets the next sequence number and a timestamp and is published on the
+  cache's ``changes`` (an ``EventBus``: callbacks, run as the change is made). The cache
+  keeps no history: a reader that needs what it missed takes a ``snapshot``; the replay
+  clients resume from is the WebSocket feed's ring (``gateway.service.feed``).
 
 Times are whatever the caller stamps events with (the scheduler's clock); nothing here reads
 a clock of its own.
 
-Here: the cache. Its records are in ``state_types``, numbering, history and subscriptions
-in ``changes`` (``ChangeLog``), what one reply tells in ``readings``, the latch rules in
-``latches``.
+Here: the cache. Its records are in ``state_types``, what one reply tells in ``readings``,
+the latch rules in ``latches``.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import logging
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import replace
 from types import MappingProxyType
 from typing import Any, TypeVar
 
-from gateway.bus.changes import ChangeLog, FellBehind, Subscription
 from gateway.bus.events import (
     BusEvent,
     ControllerAnswering,
+    EventBus,
     FramingChanged,
     LinkDown,
     LinkUp,
@@ -64,24 +63,22 @@ __all__ = [
     "Change",
     "ControllerState",
     "ErrorKind",
-    "FellBehind",
     "Latch",
     "LoopState",
     "Snapshot",
     "StateCache",
-    "Subscription",
 ]
-
-log = logging.getLogger("gateway.bus")
 
 _R = TypeVar("_R", LoopState, ControllerState, AxisState)
 
 
-class StateCache(ChangeLog):
-    """The latched state of every loop; fed with replies, read by snapshot, change or stream."""
+class StateCache:
+    """The latched state of every loop; fed with replies, read by record, snapshot or change."""
 
-    def __init__(self, *, history: int = 10_000, stale_after: float = 3.0) -> None:
-        super().__init__(history)
+    def __init__(self, *, stale_after: float = 3.0) -> None:
+        #: every change as it is made, numbered (``seq``): ``changes.subscribe(callback)``
+        self.changes: EventBus[Change] = EventBus()
+        self._seq = 0
         self.stale_after = stale_after
         self._loops: dict[str, LoopState] = {}
         self._ctls: dict[tuple[str, str], ControllerState] = {}
@@ -91,13 +88,22 @@ class StateCache(ChangeLog):
         #: controller holds them in both stores, §10 9 ③: ``readings``)
         self.status_since_condition: dict[tuple[str, str], frozenset[ErrorKind]] = {}
         self.counters_period = 1.0
-        self._followers: list[Callable[[BusEvent], None]] = []
+        #: the scheduler's events, handed on once the cache has learnt from them (``follow``)
+        self._followers: EventBus[BusEvent] = EventBus()
         #: the ``updated`` of controllers and axes whose latest reply changed nothing else
         #: (``_fold``), by their keys: (loop, body) and (loop, body, motor)
         self._fresh: dict[tuple[str, str] | tuple[str, str, int], float] = {}
 
     # ------------------------------------------------------------------ reading
-    # (seq, changes_since, subscribe and listen: see ChangeLog)
+
+    @property
+    def seq(self) -> int:
+        """The number of the latest change (0: none yet)."""
+        return self._seq
+
+    def listen(self, callback: Callable[[Change], None]) -> Callable[[], None]:
+        """``changes.subscribe(callback)``: every change from now on; returns the unsubscriber."""
+        return self.changes.subscribe(callback)
 
     def loop(self, name: str) -> LoopState:
         """One loop (a blank one if nothing was heard of it)."""
@@ -122,7 +128,7 @@ class StateCache(ChangeLog):
         return sorted(b for (name, b) in self._ctls if name == loop)
 
     def snapshot(self) -> Snapshot:
-        """Everything, with the sequence number to ask ``changes_since`` from next."""
+        """Everything, as of change ``seq`` (a later change has a higher number)."""
         for key in list(self._fresh):
             # (loop, body, motor): an axis; (loop, body): a controller (a loop has no reply time)
             store: dict[Any, Any] = self._axes if len(key) == 3 else self._ctls
@@ -169,7 +175,9 @@ class StateCache(ChangeLog):
         if updated is not None:  # published with the fields that changed, as it was read
             changed["updated"] = self._fresh.pop(key)
         store[key] = replace(old, **changed)
-        self._emit(now, *where, **changed)
+        self._seq += 1
+        loop, body, motor = where
+        self.changes.publish(Change(self._seq, now, loop, body, motor, MappingProxyType(changed)))
         return True
 
     def _set_loop(self, now: float, name: str, **values: Any) -> None:
@@ -264,8 +272,7 @@ class StateCache(ChangeLog):
         it has learnt from it; returns the unsubscribe. A subscriber that reads the cache
         while it handles an event follows here: it reads what that event taught, whatever
         order the scheduler's subscribers were added in."""
-        self._followers.append(callback)
-        return lambda: self._followers.remove(callback) if callback in self._followers else None
+        return self._followers.subscribe(callback)
 
     def handle(self, event: BusEvent, *, queue_depth: int | None = None) -> None:
         """Take one event of the loop scheduler (subscribe this to its ``EventBus``), then
@@ -273,11 +280,7 @@ class StateCache(ChangeLog):
         try:
             self._learn(event, queue_depth)
         finally:
-            for callback in list(self._followers):
-                try:
-                    callback(event)
-                except Exception:  # one bad follower must not stop the others
-                    log.exception("state follower %r failed on %r", callback, event)
+            self._followers.publish(event)
 
     def _learn(self, event: BusEvent, queue_depth: int | None) -> None:
         if isinstance(event, ReplyObserved):
@@ -354,7 +357,7 @@ class StateCache(ChangeLog):
         queue_depth: int | None = None,
     ) -> None:
         """The scheduler's counters (and queue depth); published at most every
-        ``counters_period`` seconds so a busy line does not flood the history."""
+        ``counters_period`` seconds so a busy line does not flood the subscribers."""
         if not self._stats_due(loop, now):
             return
         self._counters_published[loop] = now

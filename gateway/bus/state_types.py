@@ -1,8 +1,8 @@
 """The records of the state cache: loops, controllers, axes, latched errors and changes.
 
 All frozen: the cache replaces a record whenever a field moves, so a record a reader holds
-never changes under it (``gateway.bus.state`` builds them; ``gateway.bus.changes`` numbers
-and delivers the changes).
+never changes under it (``gateway.bus.state`` builds them, and numbers and publishes the
+changes).
 """
 
 from __future__ import annotations

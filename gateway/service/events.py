@@ -40,5 +40,5 @@ class ServiceEvent:
 
 
 class ServiceEvents(EventBus[ServiceEvent]):
-    """The service layer's events: the loop scheduler's ``EventBus``, carrying
-    ``ServiceEvent``s (``subscribe``, ``publish``; a failing subscriber is logged and skipped)."""
+    """The service layer's events: the gateway's one ``EventBus``, carrying ``ServiceEvent``s
+    (``subscribe``, ``publish``; a failing subscriber is logged and skipped)."""

@@ -1,10 +1,12 @@
-"""The one numbered stream WebSocket clients read: state changes and service events (issue 5).
+"""The one numbered stream WebSocket clients read: state changes and service events.
 
-The feed listens to the ``StateCache`` and to ``ServiceEvents`` and turns each change into a
-message with the feed's own sequence number (``seq``, one counter for everything, so a client
-needs one number to resume) and ``time``: the wall clock, seconds since the epoch (float),
-when the feed published it. Every message is encoded to JSON once, however many clients get
-it, and kept in a bounded replay ring (``ws.replay`` messages).
+The feed subscribes to the ``StateCache``'s changes and to ``ServiceEvents`` and turns each
+change into a message with the feed's own sequence number (``seq``, one counter for
+everything, so a client needs one number to resume) and ``time``: the wall clock, seconds
+since the epoch (float), when the feed published it. Every message is encoded to JSON once,
+however many clients get it, and kept in a bounded replay ring (``ws.replay`` messages): the
+gateway's one replay; a client resumes from the number it last saw, or gets a snapshot when
+the ring lost some.
 
 Topics: ``axis:<id>`` (``loop.body.motor``), ``controller:<id>`` (``loop.body``),
 ``loop:<name>``, ``axis:*``, ``controller:*``, ``loop:*``, ``events`` (every event) and
@@ -187,7 +189,7 @@ class Feed:
         self._views: dict[str, dict[str, Any]] = {}
         for topic in self._all_topics():
             self._views[topic] = self._view(topic)
-        self._unlisten = [cache.listen(self._on_change)]
+        self._unlisten = [cache.changes.subscribe(self._on_change)]
         if events is not None:
             self._unlisten.append(events.subscribe(self._on_event))
 

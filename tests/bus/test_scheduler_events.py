@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import asyncio
-
 from gateway.bus.events import BusEvent, EventBus, LinkUp, ReplyObserved
 from gateway.bus.requests import Outcome, ReplyKind
 from gateway.protocol.registry import parse
@@ -11,26 +9,29 @@ from gateway.sim.faults import FaultKind
 from tests.bus.conftest import MakeBus
 
 
-def test_callbacks_and_queues_get_every_event_in_order() -> None:
-    async def run() -> None:
-        bus = EventBus()
-        seen: list[BusEvent] = []
-        unsubscribe = bus.subscribe(seen.append)
-        bus.subscribe(lambda e: [][0])  # a failing subscriber stops nobody
-        q = bus.queue(maxsize=2)
-        events = [LinkUp(loop="a", time=float(n)) for n in range(3)]
-        for event in events:
-            bus.publish(event)
-        assert seen == events
-        # the queue kept the newest two; the oldest was dropped and counted
-        assert [q.get_nowait(), q.get_nowait()] == events[1:]
-        assert bus.dropped == 1
-        unsubscribe()
-        bus.unqueue(q)
-        bus.publish(LinkUp(loop="b"))
-        assert len(seen) == 3 and q.empty()
+def test_callbacks_get_every_event_in_order() -> None:
+    bus: EventBus[BusEvent] = EventBus()
+    seen: list[BusEvent] = []
+    unsubscribe = bus.subscribe(seen.append)
+    bus.subscribe(lambda e: [][0])  # a failing subscriber stops nobody
+    events = [LinkUp(loop="a", time=float(n)) for n in range(3)]
+    for event in events:
+        bus.publish(event)
+    assert seen == events
+    unsubscribe()
+    bus.publish(LinkUp(loop="b"))
+    assert len(seen) == 3
 
-    asyncio.run(run())
+
+def test_a_first_subscriber_runs_before_those_that_subscribed_earlier() -> None:
+    # The state cache subscribes first: every other subscriber reads what the event taught it.
+    bus: EventBus[BusEvent] = EventBus()
+    order: list[str] = []
+    bus.subscribe(lambda _e: order.append("early"))
+    bus.subscribe(lambda _e: order.append("cache"), first=True)
+    bus.subscribe(lambda _e: order.append("late"))
+    bus.publish(LinkUp(loop="a"))
+    assert order == ["cache", "early", "late"]
 
 
 async def test_a_lost_reply_to_a_read_that_clears_flags_is_not_sent_again(

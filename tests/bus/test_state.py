@@ -6,18 +6,12 @@ decoded with the protocol's reply decoder, as the scheduler hands them over.
 
 from __future__ import annotations
 
-import asyncio
-
-import pytest
-
 from gateway.bus.counters import CountersSnapshot
 from gateway.bus.events import LinkDown, LinkUp, ReplyObserved, TransactionDone
 from gateway.bus.requests import Outcome, Priority
 from gateway.bus.state import (
     Change,
     ErrorKind,
-    FellBehind,
-    Snapshot,
     StateCache,
 )
 from gateway.protocol.registry import parse
@@ -149,7 +143,7 @@ def test_positions_and_sensors_go_to_their_axis() -> None:
 def test_every_change_has_the_next_number_and_its_time() -> None:
     cache = StateCache()
     seen: list[Change] = []
-    cache.listen(seen.append)
+    cache.changes.subscribe(seen.append)
     reply(cache, "61", "00000100", 1.0)
     reply(cache, "61", "00000100", 2.0)  # nothing new: no change
     reply(cache, "61", "00000200", 3.0)
@@ -160,14 +154,11 @@ def test_every_change_has_the_next_number_and_its_time() -> None:
     assert cache.seq == seen[-1].seq
 
 
-def test_changes_since_a_number_or_a_snapshot_when_history_is_gone() -> None:
-    cache = StateCache(history=5)
+def test_a_snapshot_is_as_of_the_latest_change() -> None:
+    cache = StateCache()
     for i in range(20):
         reply(cache, "61", f"{i:08d}", float(i))
     latest = cache.seq
-    assert [c.values["position"] for c in cache.changes_since(latest - 2) or []] == [18, 19]
-    assert cache.changes_since(latest) == []
-    assert cache.changes_since(1) is None  # older than the history: take a snapshot
     snap = cache.snapshot()
     assert snap.seq == latest and snap.axes[LOOP, "1", 1].position == 19
 
@@ -204,39 +195,6 @@ def test_a_motion_ack_while_moving_does_not_move_the_selection() -> None:
     reply(cache, "42", None, 1.2)  # refused by the device: a motion command while moving
     assert cache.controller(LOOP, "1").selected_motor == 1
     assert cache.axis(LOOP, "1", 1).moving
-
-
-async def test_a_subscription_delivers_in_order_and_resyncs_after_falling_behind() -> None:
-    cache = StateCache()
-    sub = cache.subscribe(maxsize=2)
-    reply(cache, "61", "00000001", 1.0)  # first contact: controller and axis changes
-    first = [await asyncio.wait_for(sub.get(), 1.0) for _ in range(2)]
-    assert [c.seq for c in first] == [1, 2]
-    for i in range(2, 10):
-        reply(cache, "61", f"{i:08d}", float(i))
-    got = [await asyncio.wait_for(sub.get(), 1.0)]
-    got.append(await asyncio.wait_for(sub.get(), 1.0))
-    with pytest.raises(FellBehind):
-        await asyncio.wait_for(sub.get(), 1.0)
-    missed = sub.resync()
-    assert isinstance(missed, list)
-    positions = [c.values["position"] for c in got + missed if "position" in c.values]
-    assert positions[-1] == 9 and positions == sorted(positions)
-    reply(cache, "61", "00000010", 10.0)
-    assert (await asyncio.wait_for(sub.get(), 1.0)).values["position"] == 10
-    sub.close()
-
-
-async def test_a_subscriber_behind_the_history_gets_a_snapshot() -> None:
-    cache = StateCache(history=3)
-    sub = cache.subscribe(maxsize=1)
-    for i in range(10):
-        reply(cache, "61", f"{i:08d}", float(i))
-    await asyncio.wait_for(sub.get(), 1.0)
-    with pytest.raises(FellBehind):
-        await asyncio.wait_for(sub.get(), 1.0)
-    missed = sub.resync()
-    assert isinstance(missed, Snapshot) and missed.axes[LOOP, "1", 1].position == 9
 
 
 def test_framing_follows_settings_and_queries() -> None:
@@ -324,8 +282,9 @@ def test_an_idle_poll_publishes_nothing_yet_every_reader_sees_its_time() -> None
     cache.refresh(7.5)
     assert cache.axis(LOOP, "1", 1).stale
     # A change that comes with a reply carries that reply's time.
+    change: list[Change] = []
+    cache.changes.subscribe(change.append)
     reply(cache, "61", "00003600", 8.0)
-    change = cache.changes_since(cache.seq - 1)
     assert change and change[-1].values["position"] == 3600 and change[-1].values["updated"] == 8.0
 
 
@@ -333,7 +292,7 @@ def test_counters_are_copied_only_when_published() -> None:
     cache = StateCache()
     cache.counters_period = 1.0
     seen: list[Change] = []
-    cache.listen(seen.append)
+    cache.changes.subscribe(seen.append)
     for i in range(25):  # 25 transactions in 2.4 s: the counters published 3 times
         done = TransactionDone(
             loop=LOOP, time=i * 0.1, body="1", commands=("",), outcome=Outcome.DONE,
