@@ -15,6 +15,7 @@ import pytest
 
 from gateway.errors import InvalidInputError, ParameterError
 from gateway.protocol import Command, PositionFormat, commands, parse
+from gateway.protocol.spec import Effect
 from tests.sim.manual_examples import EXAMPLES, NEEDS_CONTROL
 
 SIGNED = PositionFormat.SIGNED
@@ -280,6 +281,30 @@ def test_form_predicates_are_facts_of_the_catalog() -> None:
     assert commands.FRAMING_SETTINGS[parse("SUM1").form] == ("checksum", True)
     assert commands.FRAMING_QUERIES[parse("EL").form] == "cr_after_ack"
     assert {f.syntax for f in commands.CLEARS_ERRORS} == {"K{dt},{du}{dl}", "K{dt},{bt}", "KC"}
+    # the motions whose end the soft limits work out: each one a motion of the catalog
+    moves = {
+        f: parse(text).form
+        for f, text in [
+            (commands.MOVES_TO_POSITION_DATA, "31"),
+            (commands.MOVES_BY_TABLE_ENTRY, "B012+"),
+            (commands.MOVES_TO_TABLE_ENTRY, "B0122"),
+            (commands.MOVES_TO_ORIGIN, "1"),
+            (commands.ORIGIN_SEARCHES, "0Q"),
+        ]
+    }
+    assert all(form in forms for forms, form in moves.items())
+    assert commands.MOVES_BY_POSITION_DATA[parse("52").form] == -1
+    assert commands.ONE_PULSE_STEPS[commands.step_cw().form] == 1
+    every = (
+        *commands.MOVES_TO_POSITION_DATA,
+        *commands.MOVES_BY_POSITION_DATA,
+        *commands.MOVES_TO_TABLE_ENTRY,
+        *commands.MOVES_BY_TABLE_ENTRY,
+        *commands.MOVES_TO_ORIGIN,
+        *commands.ONE_PULSE_STEPS,
+        *commands.ORIGIN_SEARCHES,
+    )
+    assert all(f.effect is Effect.MOTION for f in every)
 
 
 def _host_entries() -> list[Any]:
