@@ -39,6 +39,8 @@ from collections.abc import Iterable
 from dataclasses import dataclass, field
 from enum import IntEnum
 
+from gateway.protocol.models import Command
+
 __all__ = ["BodyPlan", "Job", "PollConfig", "PollPlan"]
 
 
@@ -81,7 +83,7 @@ class BodyPlan:
     misses: int = 0  # polls in a row nobody answered
     probe_delay: float = 0.0
     ran_due: float = 0.0  # the due time of the job running (or run last)
-    deferred: list[str] = field(default_factory=list)  # reads refused while moving, to do
+    deferred: list[Command] = field(default_factory=list)  # reads refused while moving, to do
 
 
 class PollPlan:

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import functools
 import logging
 from collections.abc import Callable, Iterable
 
@@ -35,8 +36,8 @@ from gateway.bus.position_stream import PositionStream, Submitter
 from gateway.bus.requests import BusError, LoopDown, Priority, ReplyKind, TransactionResult
 from gateway.bus.scheduler import LoopScheduler
 from gateway.bus.state import Change, StateCache
+from gateway.protocol import commands as cmd
 from gateway.protocol.models import Command
-from gateway.protocol.registry import parse
 from gateway.protocol.reply_values import Version
 from gateway.protocol.spec import Effect
 
@@ -45,14 +46,20 @@ __all__ = ["Job", "PollConfig", "Poller", "Submitter", "attach"]
 log = logging.getLogger("gateway.bus")
 
 
-_COMMANDS: dict[str, Command] = {}
-
-
-def _command(text: str) -> Command:
-    """The model of a poll command (parsed once)."""
-    if text not in _COMMANDS:
-        _COMMANDS[text] = parse(text)
-    return _COMMANDS[text]
+# The poll commands, built once: the plan sends them many times a second.
+_STATUS = cmd.status()
+_VERSION = cmd.version()
+_CHECKSUM = cmd.checksum()
+_SENSORS = cmd.sensors()
+_PROGRAM_STATE = cmd.program_state()
+_ECHO_BACK = cmd.echo_back()
+_CR_AFTER_ACK = cmd.cr_after_ack()
+_ERROR_MARK = cmd.error_mark()
+#: ``9{bit}``: 0 communication error, 4 mode, 6 step-out, 7 selected motor (§10 9 form II)
+_condition_bit: Callable[[int], Command] = functools.cache(cmd.condition_bit)
+#: ``6{mt}``, ``CLM{mt}``
+_position: Callable[[int | None], Command] = functools.cache(cmd.position)
+_motor_sensors: Callable[[int | None], Command] = functools.cache(cmd.sensors)
 
 
 class Poller:
@@ -248,23 +255,26 @@ class Poller:
             # While a motor moves it is the selected one (F is refused, §10 F): an unconfirmed
             # selection is read back with 97 in the same transaction, so that the position
             # stream can read 6 without a suffix.
-            confirm = [] if ctl.selection_confirmed or not ctl.moving else ["97"]
-            texts = confirm if job is not Job.PROBE else []
-            answered = await self._poll(plan, "", *texts, was=ctl.online)
+            confirm = [] if ctl.selection_confirmed or not ctl.moving else [_condition_bit(7)]
+            extra = confirm if job is not Job.PROBE else []
+            answered = await self._poll(plan, _STATUS, *extra, was=ctl.online)
             if answered and self._moving(plan.body):
                 self._stream(plan.body)  # a move seen (or one whose stream was cut off)
             elif answered and plan.deferred:
                 await self._poll(plan, *plan.deferred)
         elif job is Job.SETTLE:  # the move has ended: its final position and sensors
             moved = ctl.last_moved or motor
-            if await self._poll(plan, f"6{moved}", f"CLM{moved}") and plan.deferred:
+            if await self._poll(plan, _position(moved), _motor_sensors(moved)) and plan.deferred:
                 await self._poll(plan, *plan.deferred)
         elif job is Job.SENSORS:  # CLM is refused while moving (§10 CL); CL reads the moving one
-            await (self._poll(plan, "CL") if ctl.moving else self._poll(plan, "CLM1", "CLM2"))
+            if ctl.moving:
+                await self._poll(plan, _SENSORS)
+            else:
+                await self._poll(plan, _motor_sensors(1), _motor_sensors(2))
         elif job is Job.CONDITIONS:
-            await self._poll(plan, "90", "96", "GSS")
+            await self._poll(plan, _condition_bit(0), _condition_bit(6), _PROGRAM_STATE)
         elif job is Job.POSITIONS:
-            await self._poll(plan, "61", "62")
+            await self._poll(plan, _position(1), _position(2))
         self._schedule(plan, job, identified=identified)
 
     async def _identify(self, plan: BodyPlan, was: bool | None) -> bool:
@@ -275,20 +285,21 @@ class Poller:
         (動作中 ×) and would raise the command error the gateway then reports; those framing
         reads wait until the controller is seen stopped. True when the controller answered.
         """
-        result = await self._poll(plan, "", "V", "94", "SUM", was=was)
+        result = await self._poll(plan, _STATUS, _VERSION, _condition_bit(4), _CHECKSUM, was=was)
         if result is None:
             return False
         version = result.results[1].value
-        framing = ["EE", "EL"]
+        framing = [_ECHO_BACK, _CR_AFTER_ACK]
         if isinstance(version, Version) and version.has_error_display:  # ER: ROM 1.19+
-            framing.append("ER")
+            framing.append(_ERROR_MARK)
         plan.deferred = framing
-        if await self._poll(plan, "97", "61", "62") and not self._moving(plan.body):
+        selection = await self._poll(plan, _condition_bit(7), _position(1), _position(2))
+        if selection and not self._moving(plan.body):
             await self._poll(plan, *plan.deferred)
         return True
 
     async def _poll(
-        self, plan: BodyPlan, *texts: str, was: bool | None = True
+        self, plan: BodyPlan, *commands: Command, was: bool | None = True
     ) -> TransactionResult | None:
         """One poll transaction; None when nobody answered or a move started meanwhile.
         ``was``: whether the cache had the controller online before (False: found silent).
@@ -296,7 +307,6 @@ class Poller:
         A poll with a command that is refused while moving is withdrawn from the queue when
         a motion command for the controller is accepted before it goes out (``handle``).
         """
-        commands = [_command(t) for t in texts]
         fragile = any(not c.spec.form_while_moving(c.form) for c in commands)
         task = asyncio.ensure_future(
             self._scheduler.submit(plan.body, commands, priority=Priority.POLL)
@@ -313,8 +323,9 @@ class Poller:
             self._fragile = None
         if not self._answered(plan, result, was):
             return None
-        done = {c.key for c, r in zip(commands, result.results, strict=True) if r.value is not None}
-        if fragile and {_command(t).key for t in plan.deferred} <= done:
+        results = zip(commands, result.results, strict=True)
+        done = {c.form for c, r in results if r.value is not None}
+        if fragile and {c.form for c in plan.deferred} <= done:
             plan.deferred = []
         return result
 

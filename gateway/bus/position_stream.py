@@ -37,8 +37,8 @@ from typing import Protocol
 
 from gateway.bus.requests import BusError, Priority, ReplyKind, TransactionResult
 from gateway.bus.state import StateCache
+from gateway.protocol import commands
 from gateway.protocol.models import Command
-from gateway.protocol.registry import parse
 
 __all__ = ["PositionStream", "Submitter"]
 
@@ -69,10 +69,8 @@ class Submitter(Protocol):
         ...
 
 
-@functools.cache
-def position_read(motor: int | None) -> Command:
-    """``6`` (the selected motor) or ``6{motor}``, parsed once."""
-    return parse("6" if motor is None else f"6{motor}")
+#: ``6`` (the selected motor) or ``6{motor}``, built once per motor (read back to back)
+position_read: Callable[[int | None], Command] = functools.cache(commands.position)
 
 
 class PositionStream:

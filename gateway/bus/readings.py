@@ -16,6 +16,7 @@ from types import MappingProxyType
 from typing import Any, Protocol
 
 from gateway.bus.state_types import MOTORS, ControllerState, ErrorKind
+from gateway.protocol import commands
 from gateway.protocol.framing import POWER_ON
 from gateway.protocol.models import Command
 from gateway.protocol.replies import ReplyValue
@@ -126,8 +127,9 @@ class _Reading:
             self.number(ctl, value)
 
     def accepted(self, ctl: ControllerState) -> None:
-        form, key = self.command.form, self.command.key
-        if key.startswith("F{") and not ctl.moving:  # F cannot be used while moving (§10 F)
+        form = self.command.form
+        switch = commands.FRAMING_SETTINGS.get(form)
+        if form is commands.SELECT_MOTOR and not ctl.moving:  # not while moving (§10 F)
             self.ctl(selected_motor=self.command.motor, selection_confirmed=False)
         elif form.effect is Effect.MOTION and not ctl.moving:
             # A suffix selects the motor and the selection stays (§9-1, §10 F).
@@ -138,18 +140,18 @@ class _Reading:
             self.ctl(
                 selected_motor=moved, last_moved=moved, selection_confirmed=confirmed, moving=True
             )
-        elif key[:-1] in ("EE", "EL", "ER", "SUM") and key[-1:] in "01":
-            self.framing(key[:-1], key[-1] == "1")
-        elif key in ("EP0", "EP1"):
-            self.ctl(signed_positions=key == "EP1")
-        elif key == "DL":  # the settings, EP among them, reloaded from the EEPROM (§10 DL)
+        elif switch is not None:
+            self.framing(*switch)
+        elif form is commands.SET_SIGNED_POSITIONS or form is commands.SET_UNSIGNED_POSITIONS:
+            self.ctl(signed_positions=form is commands.SET_SIGNED_POSITIONS)
+        elif form is commands.LOAD_SETTINGS:  # the settings, EP among them, reloaded (§10 DL)
             self.ctl(signed_positions=None)
 
-    def framing(self, switch: str, on: bool) -> None:
-        names = {"EE": "echo", "EL": "cr_after_ack", "ER": "error_mark", "SUM": "checksum"}
+    def framing(self, field: str, on: bool) -> None:
+        """Set the ``Framing`` field ``field`` (``echo``, ``checksum`` ...) to ``on``."""
         current = self.cache.flags(self.loop, self.body).framing or POWER_ON
         with contextlib.suppress(ValueError):  # EE1 with SUM1: refused (§10 EE, SUM)
-            self.ctl(framing=replace(current, **{names[switch]: on}))
+            self.ctl(framing=replace(current, **{field: on}))
 
     def status(self, ctl: ControllerState, flags: StatusFlags) -> None:
         # "" clears bits 1-3 after the reply (§10 "" 注意点): latch them now or lose them.
@@ -186,21 +188,22 @@ class _Reading:
         self.latch([ErrorKind.COMMUNICATION] * flags.communication_error + kinds)
 
     def number(self, ctl: ControllerState, value: int) -> None:
-        key = self.command.key
-        if key in ("6", "6{mt}"):
+        form = self.command.form
+        framing_field = commands.FRAMING_QUERIES.get(form)
+        if form.reads_position:
             motor = self.motor(ctl)
             if motor is not None:
                 self.axis(motor, position=value, updated=self.now, stale=False)
-        elif key == "9{bit}":
+        elif form is commands.CONDITION_BIT:
             self.condition_bit(ctl, int(self.command.params()["bit"]), value)
-        elif key == "E":
+        elif form is commands.MODE:
             self.ctl(mode=value)
-        elif key == "EP" and value in (0, 1):
+        elif form is commands.POSITION_FORMAT and value in (0, 1):
             self.ctl(signed_positions=value == 1)
-        elif key == "F":
+        elif form is commands.SELECTED_MOTOR:
             self.ctl(selected_motor=value, selection_confirmed=True)
-        elif key in ("EE", "EL", "ER", "SUM"):
-            self.framing(key, value == 1)
+        elif framing_field is not None:
+            self.framing(framing_field, value == 1)
 
     def condition_bit(self, ctl: ControllerState, bit: int, value: int) -> None:
         # 9{bit} clears nothing (§10 9 ②): the device holds a set bit until a 9 form I read,

@@ -49,7 +49,7 @@ async def test_fresh_reads_the_status_now(api: Api) -> None:
     assert r.status_code == 200
     assert r.json()["mode"] == 1  # what 94 now reads (§10 9 bits 5,4)
     assert r.json()["program"] == "0"  # GSS: no program has run
-    assert contains_run(api.heard(since=mark), FRESH_READS)
+    assert contains_run(api.heard(since=mark), tuple(c.wire() for c in FRESH_READS))
 
 
 async def test_views_are_for_viewers() -> None:

@@ -15,6 +15,7 @@ import pytest
 
 from gateway.errors import InvalidInputError, ParameterError
 from gateway.protocol import Command, PositionFormat, commands, parse
+from gateway.protocol.spec import Effect
 from tests.sim.manual_examples import EXAMPLES, NEEDS_CONTROL
 
 SIGNED = PositionFormat.SIGNED
@@ -95,6 +96,26 @@ CASES: list[tuple[str, tuple[Any, ...], str]] = [
     ("set_program_autostart", (True,), "GAS"),
     ("set_program_autostart", (False,), "GAR"),
     ("end_program_now", (), "GES"),
+    ("store_position", (12,), "A012"),
+    ("input_bit", (3,), "C3"),
+    ("input_bit", (8,), "C8"),
+    ("output_bit", (9,), "CO9"),
+    ("set_outputs", (0x5A,), "D5A"),
+    ("set_outputs", (0x5A, (True, True)), "DA35A"),
+    ("set_outputs", (0x01, (False, True)), "DA201"),
+    ("set_output_bit", (3, False), "D30B"),
+    ("set_output_bit", (8, True), "D81B"),
+    ("set_output_bit", (9, False), "D90B"),
+    ("pulse_output", (3, 10), "P310"),
+    ("set_sensor_logic", (0x3F,), "EA3F"),
+    ("save_settings", (), "DW"),
+    ("save_positions", (), "AW"),
+    ("save_program", (), "IW"),
+    ("load_positions", (), "AL"),
+    ("load_program", (), "IL"),
+    ("erase_eeprom", (), "EE///"),
+    ("set_program_buffer", ("B", 0x5A), "GWB5A"),
+    ("set_program_counter", (2, 65535), "GW265535"),
 ]
 
 
@@ -260,6 +281,30 @@ def test_form_predicates_are_facts_of_the_catalog() -> None:
     assert commands.FRAMING_SETTINGS[parse("SUM1").form] == ("checksum", True)
     assert commands.FRAMING_QUERIES[parse("EL").form] == "cr_after_ack"
     assert {f.syntax for f in commands.CLEARS_ERRORS} == {"K{dt},{du}{dl}", "K{dt},{bt}", "KC"}
+    # the motions whose end the soft limits work out: each one a motion of the catalog
+    moves = {
+        f: parse(text).form
+        for f, text in [
+            (commands.MOVES_TO_POSITION_DATA, "31"),
+            (commands.MOVES_BY_TABLE_ENTRY, "B012+"),
+            (commands.MOVES_TO_TABLE_ENTRY, "B0122"),
+            (commands.MOVES_TO_ORIGIN, "1"),
+            (commands.ORIGIN_SEARCHES, "0Q"),
+        ]
+    }
+    assert all(form in forms for forms, form in moves.items())
+    assert commands.MOVES_BY_POSITION_DATA[parse("52").form] == -1
+    assert commands.ONE_PULSE_STEPS[commands.step_cw().form] == 1
+    every = (
+        *commands.MOVES_TO_POSITION_DATA,
+        *commands.MOVES_BY_POSITION_DATA,
+        *commands.MOVES_TO_TABLE_ENTRY,
+        *commands.MOVES_BY_TABLE_ENTRY,
+        *commands.MOVES_TO_ORIGIN,
+        *commands.ONE_PULSE_STEPS,
+        *commands.ORIGIN_SEARCHES,
+    )
+    assert all(f.effect is Effect.MOTION for f in every)
 
 
 def _host_entries() -> list[Any]:

@@ -14,10 +14,13 @@ __all__ = [
     "echo_back",
     "end_program",
     "end_program_now",
+    "erase_eeprom",
     "error_mark",
     "error_output",
     "inputs",
     "inputs_with_inp",
+    "load_positions",
+    "load_program",
     "load_settings",
     "mode",
     "next_step",
@@ -31,6 +34,9 @@ __all__ = [
     "program_text",
     "resume_program",
     "run_program",
+    "save_positions",
+    "save_program",
+    "save_settings",
     "select_motor",
     "selected_motor",
     "sensor_logic",
@@ -42,6 +48,8 @@ __all__ = [
     "set_error_mark",
     "set_mode",
     "set_program_autostart",
+    "set_program_buffer",
+    "set_program_counter",
     "status",
     "upload_program",
     "version",
@@ -178,6 +186,36 @@ def load_settings() -> Command:
     return build("DL")
 
 
+def save_settings() -> Command:
+    """``DW``: write the settings to the EEPROM (``$B#*`` follows when the write ends)."""
+    return build("DW")
+
+
+def save_positions() -> Command:
+    """``AW``: write the position table to the EEPROM."""
+    return build("AW")
+
+
+def load_positions() -> Command:
+    """``AL``: reload the position table from the EEPROM."""
+    return build("AL")
+
+
+def save_program() -> Command:
+    """``IW``: write the user program to the EEPROM."""
+    return build("IW")
+
+
+def load_program() -> Command:
+    """``IL``: reload the user program from the EEPROM."""
+    return build("IL")
+
+
+def erase_eeprom() -> Command:
+    """``EE///``: erase the EEPROM (the controller is silent for up to 20 s)."""
+    return build("EE///")
+
+
 def upload_program() -> Command:
     """``I``: open program reception (the program text follows, ended by CR)."""
     return build("I")
@@ -214,6 +252,16 @@ def program_buffer(buffer: ProgramBuffer) -> Command:
 def program_counter(counter: int) -> Command:
     """``GR{ct}``: counter 1 or 2."""
     return build("GR{ct}", ct=counter)
+
+
+def set_program_buffer(buffer: ProgramBuffer, value: int) -> Command:
+    """``GW{bf}{du}{dl}``: data buffer ``buffer`` to the byte ``value``."""
+    return build("GW{bf}{du}{dl}", bf=buffer, du=value >> 4, dl=value & 0xF)
+
+
+def set_program_counter(counter: int, value: int) -> Command:
+    """``GW{ct}{dt}``: counter 1 or 2 to ``value`` (0-65535)."""
+    return build("GW{ct}{dt}", ct=counter, dt=value)
 
 
 def program_autostart() -> Command:

@@ -23,7 +23,14 @@ __all__ = [
     "FRAMING_SETTINGS",
     "LOAD_SETTINGS",
     "MODE",
+    "MOVES_BY_POSITION_DATA",
+    "MOVES_BY_TABLE_ENTRY",
+    "MOVES_TO_ORIGIN",
+    "MOVES_TO_POSITION_DATA",
+    "MOVES_TO_TABLE_ENTRY",
+    "ONE_PULSE_STEPS",
     "OPEN_PROGRAM",
+    "ORIGIN_SEARCHES",
     "POSITION_FORMAT",
     "PROGRAM_ENDS",
     "PROGRAM_STARTS",
@@ -95,3 +102,26 @@ FRAMING_SETTINGS: Mapping[Form, tuple[str, bool]] = {
 }
 #: ``ES{bp}``: set the baud rate (written to the EEPROM at once).
 SET_BAUD_RATE: Form = REGISTRY.form("ES{bp}")
+
+# The motion forms whose end the soft limits work out before sending (§10 0-5, 7*, 8*, B).
+#: ``3`` / ``3{mt}``: to the position data of ``2``.
+MOVES_TO_POSITION_DATA: frozenset[Form] = frozenset(REGISTRY.form(k) for k in ("3", "3{mt}"))
+#: ``4`` / ``5`` (and their ``{mt}`` forms): by the count of ``2``, CW (+1) or CCW (-1).
+MOVES_BY_POSITION_DATA: Mapping[Form, int] = {
+    REGISTRY.form(k): sign for k, sign in (("4", 1), ("4{mt}", 1), ("5", -1), ("5{mt}", -1))
+}
+#: ``B{pn}`` / ``B{pn}{mt}``: to entry ``pn`` of the position table.
+MOVES_TO_TABLE_ENTRY: frozenset[Form] = frozenset(REGISTRY.form(k) for k in ("B{pn}", "B{pn}{mt}"))
+#: ``B{pn}{dir}`` / ``B{pn}{mt}{dir}``: by the value of entry ``pn``, in direction ``dir``.
+MOVES_BY_TABLE_ENTRY: frozenset[Form] = frozenset(
+    REGISTRY.form(k) for k in ("B{pn}{dir}", "B{pn}{mt}{dir}")
+)
+#: ``1`` / ``1{mt}``: to position 0.
+MOVES_TO_ORIGIN: frozenset[Form] = frozenset(REGISTRY.form(k) for k in ("1", "1{mt}"))
+#: ``7*`` / ``8*``: one pulse CW (+1) or CCW (-1).
+ONE_PULSE_STEPS: Mapping[Form, int] = {REGISTRY.form("7*"): 1, REGISTRY.form("8*"): -1}
+#: ``0``, ``0A``, ``0H``, ``0R``, ``0Z``, ``0Q``: origin searches (where they end is the
+#: machine's, not a count).
+ORIGIN_SEARCHES: frozenset[Form] = frozenset(
+    REGISTRY.form(k) for k in ("0", "0A", "0H", "0R", "0Z", "0Q")
+)

@@ -35,6 +35,7 @@ __all__ = [
     "step_ccw",
     "step_cw",
     "stop",
+    "store_position",
     "table_entry",
 ]
 
@@ -86,6 +87,11 @@ def set_table_entry(
     if signed is not None:
         values["signed"] = signed
     return REGISTRY.build("A{pn}{pp}", values, positions)
+
+
+def store_position(number: int) -> Command:
+    """``A{pn}``: entry ``number`` of the position table to the selected motor's position."""
+    return build("A{pn}", pn=number)
 
 
 def move_to_position_data(motor: int | None = None) -> Command:

@@ -59,6 +59,7 @@ from gateway.service.operations.terms import (
 )
 from gateway.service.operations.types import frames_of
 from gateway.service.runtime.runtime import Runtime
+from gateway.service.stops import STOP_COMMANDS
 from gateway.service.topology import AxisRef
 from gateway.service.views import AxisView, axis_view
 
@@ -73,7 +74,6 @@ __all__ = [
 ]
 
 
-_STOP = {StopMode.IMMEDIATE: "S", StopMode.DECELERATE: "SS"}
 _JOG = {Direction.CW: cmd.jog_cw, Direction.CCW: cmd.jog_ccw}
 _STEP = {Direction.CW: cmd.step_cw, Direction.CCW: cmd.step_ccw}
 _HOME: dict[HomeMethod, cmd.HomeMethod] = {
@@ -242,7 +242,7 @@ class AxisService:
         """Stop: never refused (no lease, moving or state check). ``S``/``SS`` act on the
         selected motor, which is the moving one (``F`` is refused while moving, §10 F)."""
         ref = self.ref(ident)
-        command = _STOP[mode]
+        command = STOP_COMMANDS[mode]
         op = self.operations.note_stop(ref.loop, ref.body)
         result = await self.gateway.scheduler(ref.loop).stop(ref.body, command)
         return StopResult(

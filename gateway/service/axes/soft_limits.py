@@ -39,24 +39,12 @@ from gateway.errors import DeviceError, InvalidInputError
 from gateway.protocol import commands as cmd
 from gateway.protocol.models import Command
 from gateway.protocol.params import PositionFormat
-from gateway.protocol.registry import REGISTRY
 from gateway.protocol.spec import Effect
 from gateway.service.axes.position_format import PositionFormats, check_target, position_data
 from gateway.service.runtime.runtime import Runtime
 from gateway.service.topology import POSITION_MAX, POSITION_MIN, AxisRef, ControllerRef
 
 __all__ = ["Guarded", "SoftLimits", "has_soft_limits", "jog_limit"]
-
-#: Motion forms whose target is the position data of command 2 (absolute) or a count of it.
-_DATA_ABSOLUTE = frozenset(REGISTRY.form(k) for k in ("3", "3{mt}"))
-_DATA_RELATIVE = {
-    REGISTRY.form(k): s for k, s in (("4", 1), ("4{mt}", 1), ("5", -1), ("5{mt}", -1))
-}
-_ENTRY_ABSOLUTE = frozenset(REGISTRY.form(k) for k in ("B{pn}", "B{pn}{mt}"))
-_ENTRY_RELATIVE = frozenset(REGISTRY.form(k) for k in ("B{pn}{dir}", "B{pn}{mt}{dir}"))
-_TO_ORIGIN = frozenset(REGISTRY.form(k) for k in ("1", "1{mt}"))
-_ONE_PULSE = {REGISTRY.form("7*"): 1, REGISTRY.form("8*"): -1}
-_HOMING = frozenset(REGISTRY.form(k) for k in ("0", "0A", "0H", "0R", "0Z", "0Q"))
 
 #: Rule text of a motion command whose target the gateway cannot know before it is sent.
 UNKNOWN_TARGET_RULE = (
@@ -145,28 +133,28 @@ class SoftLimits:
 
     async def _resolved(self, axis: AxisRef, command: Command, field: str) -> list[Command]:
         form = command.form
-        if form in _HOMING:
+        if form in cmd.ORIGIN_SEARCHES:
             return [command]
         fmt = await self.formats.get(axis.loop, axis.body)
-        if form in _TO_ORIGIN:
+        if form in cmd.MOVES_TO_ORIGIN:
             self._check(axis, 0, fmt, command, field)
             return [command]
-        if form in _ONE_PULSE:
-            target = await self._position(axis) + _ONE_PULSE[form]
+        if form in cmd.ONE_PULSE_STEPS:
+            target = await self._position(axis) + cmd.ONE_PULSE_STEPS[form]
             self._check(axis, target, fmt, command, field)
             return [command]
-        if form in _DATA_ABSOLUTE or form in _DATA_RELATIVE:
+        if form in cmd.MOVES_TO_POSITION_DATA or form in cmd.MOVES_BY_POSITION_DATA:
             data = await self._read(axis, cmd.position_data(), "the position data (2D)")
-            if form in _DATA_ABSOLUTE:
+            if form in cmd.MOVES_TO_POSITION_DATA:
                 target = data
             else:
-                target = await self._position(axis) + _DATA_RELATIVE[form] * abs(data)
+                target = await self._position(axis) + cmd.MOVES_BY_POSITION_DATA[form] * abs(data)
             self._check(axis, target, fmt, command, field)
             return [position_data(data, fmt), command]
-        if form in _ENTRY_ABSOLUTE or form in _ENTRY_RELATIVE:
+        if form in cmd.MOVES_TO_TABLE_ENTRY or form in cmd.MOVES_BY_TABLE_ENTRY:
             pn = int(command.params()["pn"])
             entry = await self._read(axis, cmd.table_entry(pn), f"position table entry {pn:03d}")
-            if form in _ENTRY_ABSOLUTE:
+            if form in cmd.MOVES_TO_TABLE_ENTRY:
                 target = entry
             else:
                 sign = 1 if command.params()["dir"] == "+" else -1

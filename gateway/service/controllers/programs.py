@@ -11,14 +11,14 @@ state cache latches it as a program error). Buffers and counters are ``GR``/``GW
 
 from __future__ import annotations
 
-from gateway.errors import InvalidInputError
+from gateway.errors import InvalidInputError, ParameterError
 from gateway.protocol import commands as cmd
 from gateway.protocol.models import Command
 from gateway.protocol.program import Program, parse_program
 from gateway.protocol.reply_values import PortByte, ProgramState
 from gateway.service.commands import CommandRunner, require_done
 from gateway.service.controllers.replies import CommandResponse, port_json, response_of
-from gateway.service.controllers.resources import build, value_of
+from gateway.service.controllers.resources import request_fields, value_of
 from gateway.service.controllers.views import (
     PortView,
     ProgramData,
@@ -92,15 +92,11 @@ class ProgramService:
     async def run(self, ref: ControllerRef, label: str | None, *, holder: str) -> CommandResponse:
         """``G`` (from the start) or ``G{lb}`` (from the statement after ``/G{lb}``), then
         ``GSS``: its value ('1' running, '0' ended, 'E' ended by an error) is the answer."""
-        if label is None:
-            command = cmd.run_program()
-        else:
-            # Built from the model, never from text: "G" + "S" would read as GS (pause).
-            try:
-                command = build("G{lb}", "body", lb=label)
-            except InvalidInputError as exc:
-                exc.field = "body.label"
-                raise
+        # Built from the model, never from text: "G" + "S" would read as GS (pause).
+        try:
+            command = cmd.run_program(label)
+        except ParameterError as exc:
+            raise InvalidInputError(str(exc), field="body.label", rule=exc.rule) from None
         # GSS right after, in the same transaction: a G the device refuses (no program, a
         # label it lacks) is still answered '>' (§9-1 注意); the state shows whether it runs.
         result = await self.runner.run(ref, [command, cmd.program_state()], holder=holder)
@@ -153,10 +149,11 @@ class ProgramService:
         return ProgramData(controller=ref.id, buffers=buffers, counters=counters)
 
     async def set_buffer(
-        self, ref: ControllerRef, buffer: str, value: int, *, holder: str
+        self, ref: ControllerRef, buffer: cmd.ProgramBuffer, value: int, *, holder: str
     ) -> CommandResponse:
         """``GW{bf}{du}{dl}``: one data buffer byte."""
-        command = build("GW{bf}{du}{dl}", "path", bf=buffer, du=value >> 4, dl=value & 0xF)
+        with request_fields("path"):
+            command = cmd.set_program_buffer(buffer, value)
         result = await self.runner.run(ref, command, holder=holder)
         return response_of(ref, require_done(ref, result))
 
@@ -164,7 +161,8 @@ class ProgramService:
         self, ref: ControllerRef, counter: int, value: int, *, holder: str
     ) -> CommandResponse:
         """``GW{ct}{dt}``: one counter."""
-        command = build("GW{ct}{dt}", "path", ct=counter, dt=value)
+        with request_fields("path"):
+            command = cmd.set_program_counter(counter, value)
         result = await self.runner.run(ref, command, holder=holder)
         return response_of(ref, require_done(ref, result))
 

@@ -9,17 +9,16 @@ it, 504 when its reply was lost.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from enum import StrEnum
 from typing import Any
 
-from pydantic import ValidationError
-
 from gateway.bus.requests import TransactionResult
-from gateway.errors import DeviceError, InvalidInputError
+from gateway.errors import DeviceError, InvalidInputError, ParameterError
 from gateway.protocol import commands as cmd
 from gateway.protocol.models import Command
 from gateway.protocol.params import PositionFormat
-from gateway.protocol.registry import REGISTRY
 from gateway.protocol.reply_values import (
     InputsWithInp,
     OutputsWithClr,
@@ -38,7 +37,14 @@ from gateway.service.controllers.views import (
 )
 from gateway.service.topology import ControllerRef
 
-__all__ = ["EEPROM_LOAD", "EEPROM_SAVE", "ControllerResources", "EepromArea", "build", "value_of"]
+__all__ = [
+    "EEPROM_LOAD",
+    "EEPROM_SAVE",
+    "ControllerResources",
+    "EepromArea",
+    "request_fields",
+    "value_of",
+]
 
 
 class EepromArea(StrEnum):
@@ -51,25 +57,27 @@ class EepromArea(StrEnum):
 
 #: §10 DW / AW / IW: write RAM to EEPROM ('>' then ``$B#*`` when the write ends; the scheduler
 #: holds the loop until then, docs/manual-notes.md); §10 DL / AL / IL: EEPROM back into RAM.
-EEPROM_SAVE = {EepromArea.SETTINGS: "DW", EepromArea.POSITIONS: "AW", EepromArea.PROGRAM: "IW"}
-EEPROM_LOAD = {EepromArea.SETTINGS: "DL", EepromArea.POSITIONS: "AL", EepromArea.PROGRAM: "IL"}
+EEPROM_SAVE: dict[EepromArea, Callable[[], Command]] = {
+    EepromArea.SETTINGS: cmd.save_settings,
+    EepromArea.POSITIONS: cmd.save_positions,
+    EepromArea.PROGRAM: cmd.save_program,
+}
+EEPROM_LOAD: dict[EepromArea, Callable[[], Command]] = {
+    EepromArea.SETTINGS: cmd.load_settings,
+    EepromArea.POSITIONS: cmd.load_positions,
+    EepromArea.PROGRAM: cmd.load_program,
+}
 
 
-def build(key: str, field_prefix: str = "body", **params: Any) -> Command:
-    """The model of form ``key`` with ``params``; 422 naming the parameter when one breaks
-    its rule. ``positions`` in ``params`` is the validation context (EP / mode)."""
-    positions = params.pop("positions", None)
-    model = REGISTRY.model(key)
-    context = {"positions": positions} if positions is not None else None
+@contextmanager
+def request_fields(where: str = "body") -> Iterator[None]:
+    """A parameter a command constructor refuses, told as the field of the request it came
+    from (``where``: ``body`` or ``path``; ``path.pn``): 422 naming it and its rule."""
     try:
-        return model.model_validate(params, context=context)
-    except ValidationError as exc:
-        error = exc.errors()[0]
-        name = str(error["loc"][0]) if error["loc"] else None
-        param = next((p for p in model.form.params if p.name == name), None)
-        rule = param.rule() if param is not None else str(error["msg"])
-        field = f"{field_prefix}.{name}" if name else field_prefix
-        raise InvalidInputError(f"{key}: {error['msg']}", field=field, rule=rule) from None
+        yield
+    except ParameterError as exc:
+        field = f"{where}.{exc.field}" if exc.field else where
+        raise InvalidInputError(str(exc), field=field, rule=exc.rule) from None
 
 
 def value_of(ref: ControllerRef, result: TransactionResult, index: int = -1) -> Any:
@@ -79,6 +87,15 @@ def value_of(ref: ControllerRef, result: TransactionResult, index: int = -1) -> 
         command = result.results[index].command.wire()
         raise DeviceError(f"controller {ref.id}: no data in the reply to {command!r}")
     return value
+
+
+def _position_rule(exc: ParameterError) -> str:
+    """The rule a refused table position is told with: the range of the controller's
+    management as the check found it, else the rule of ``pp``'s digits."""
+    found = str(exc).partition(": ")[2]
+    # The management's range is checked on the whole model, whose error pydantic words
+    # "Value error, ..." (a digit or type error of ``pp`` itself is worded otherwise).
+    return found if found.startswith("Value error, ") else exc.rule
 
 
 def _port(byte: PortByte) -> PortView:
@@ -104,7 +121,8 @@ class ControllerResources:
 
     async def position(self, ref: ControllerRef, number: int) -> PositionEntry:
         """Entry ``number`` of the position table (``A{pn}D``, §10 A form III)."""
-        command = build("A{pn}D", "path", pn=number)
+        with request_fields("path"):
+            command = cmd.table_entry(number)
         value = value_of(ref, await self.runner.run(ref, command, holder=""))
         return PositionEntry(controller=ref.id, number=number, position=int(value))
 
@@ -126,18 +144,21 @@ class ControllerResources:
         management carry a sign").
         """
         if current:
-            command = build("A{pn}", "path", pn=number)
+            with request_fields("path"):
+                command = cmd.store_position(number)
             return await self._write(ref, command, holder, motor=motor)
         signed = self._mode(ref) == 1
         fmt = PositionFormat.SIGNED if signed else None
+        if position is None:  # the request's schema lets no such body through
+            rule = "a position in pulses, or current: true"
+            raise InvalidInputError(f"entry {number}: {rule}", field="body.position", rule=rule)
         pp = position
         try:
-            command = build(
-                "A{pn}{pp}", "body", pn=number, pp=pp, signed=signed or (pp or 0) < 0, positions=fmt
-            )
-        except InvalidInputError as exc:  # pn is the path's, checked there: pp is `position`
-            exc.field = "body.position"
-            raise
+            command = cmd.set_table_entry(number, pp, fmt, signed=signed or pp < 0)
+        except ParameterError as exc:  # pn is the path's, checked there: pp is `position`
+            raise InvalidInputError(
+                str(exc), field="body.position", rule=_position_rule(exc)
+            ) from None
         return await self._write(ref, command, holder)
 
     # ------------------------------------------------------------------ I/O
@@ -169,8 +190,9 @@ class ControllerResources:
 
     async def bit(self, ref: ControllerRef, port: str, bit: int) -> BitView:
         """One input (``C{bit}``) or output (``CO{bit}``) bit; 8, 9 = INP1/2 or CLR1/2."""
-        key = "C{bit}" if port == "inputs" else "CO{bit}"
-        value = value_of(ref, await self.runner.send(ref, [build(key, "path", bit=bit)]))
+        with request_fields("path"):
+            command = cmd.input_bit(bit) if port == "inputs" else cmd.output_bit(bit)
+        value = value_of(ref, await self.runner.send(ref, [command]))
         return BitView(controller=ref.id, bit=bit, on=bool(value))
 
     async def set_outputs(
@@ -178,27 +200,25 @@ class ControllerResources:
     ) -> CommandResponse:
         """All outputs to ``value`` (``D{du}{dl}``), with ``clr`` (CLR1, CLR2) too
         (``DA{dc}{du}{dl}``, modes 0, 1)."""
-        du, dl = value >> 4, value & 0xF
-        if clr is None:
-            return await self._write(ref, build("D{du}{dl}", du=du, dl=dl), holder)
-        dc = int(clr[0]) | int(clr[1]) << 1  # DC bit 0 CLR1, bit 1 CLR2
-        return await self._write(ref, build("DA{dc}{du}{dl}", dc=dc, du=du, dl=dl), holder)
+        with request_fields():
+            command = cmd.set_outputs(value, clr)
+        return await self._write(ref, command, holder)
 
     async def set_output_bit(
         self, ref: ControllerRef, bit: int, on: bool, *, holder: str
     ) -> CommandResponse:
         """One output: ``D{bit}{value}B`` (0-7), ``D{clr}{value}B`` (8 CLR1, 9 CLR2)."""
-        if bit in (8, 9):
-            command = build("D{clr}{value}B", "path", clr=bit, value=int(on))
-        else:
-            command = build("D{bit}{value}B", "path", bit=bit, value=int(on))
+        with request_fields("path"):
+            command = cmd.set_output_bit(bit, on)
         return await self._write(ref, command, holder)
 
     async def pulse_output(
         self, ref: ControllerRef, bit: int, time: int, *, holder: str
     ) -> CommandResponse:
         """Output ``bit`` ON for ``time`` x 100 ms (``P{bt}{time}``; it uses the timer)."""
-        return await self._write(ref, build("P{bt}{time}", "path", bt=bit, time=time), holder)
+        with request_fields("path"):
+            command = cmd.pulse_output(bit, time)
+        return await self._write(ref, command, holder)
 
     # ------------------------------------------------------------------ sensor logic, mode
 
@@ -222,8 +242,8 @@ class ControllerResources:
         self, ref: ControllerRef, motor: int, logic: SensorLogic, *, holder: str
     ) -> CommandResponse:
         """``EA{du}{dl}`` for ``motor`` (§10 EA; the EMS bit is common to both motors)."""
-        byte = logic.byte
-        command = build("EA{du}{dl}", du=byte >> 4, dl=byte & 0xF)
+        with request_fields():
+            command = cmd.set_sensor_logic(logic.byte)
         return await self._write(ref, command, holder, motor=motor)
 
     async def mode(self, ref: ControllerRef) -> ModeView:
@@ -233,7 +253,9 @@ class ControllerResources:
 
     async def set_mode(self, ref: ControllerRef, mode: int, *, holder: str) -> CommandResponse:
         """``E{mode}`` (§10 E: not while moving)."""
-        return await self._write(ref, build("E{mode}", mode=mode), holder)
+        with request_fields():
+            command = cmd.set_mode(mode)
+        return await self._write(ref, command, holder)
 
     # ------------------------------------------------------------------ EEPROM
 
@@ -242,9 +264,9 @@ class ControllerResources:
     ) -> CommandResponse:
         """Save (``DW``/``AW``/``IW``), load (``DL``/``AL``/``IL``) or erase (``EE///``)."""
         if action == "erase":
-            key = "EE///"
+            command = cmd.erase_eeprom()
         elif area is None:
             raise InvalidInputError("an EEPROM save or load names its area", field="body.area")
         else:
-            key = (EEPROM_SAVE if action == "save" else EEPROM_LOAD)[area]
-        return await self._write(ref, build(key), holder)
+            command = (EEPROM_SAVE if action == "save" else EEPROM_LOAD)[area]()
+        return await self._write(ref, command, holder)

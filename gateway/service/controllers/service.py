@@ -26,6 +26,7 @@ from pydantic import BaseModel, Field
 from gateway.bus.scheduler import LinkState
 from gateway.bus.trace import TraceRecord
 from gateway.errors import InvalidInputError, NotFoundError
+from gateway.protocol import commands
 from gateway.protocol.models import Command
 from gateway.protocol.registry import parse
 from gateway.service.commands import CommandRunner, LeaseCheck
@@ -41,7 +42,14 @@ __all__ = ["FRESH_READS", "ControllerService", "TraceLine", "TraceView"]
 
 #: What ``?fresh=true`` reads: status (moving, errors), mode (94: clears nothing and is allowed
 #: while moving, §10 9 form II), the selected motor (97), both positions, the program state.
-FRESH_READS = ("", "94", "97", "61", "62", "GSS")
+FRESH_READS: tuple[Command, ...] = (
+    commands.status(),
+    commands.condition_bit(4),
+    commands.condition_bit(7),
+    commands.position(1),
+    commands.position(2),
+    commands.program_state(),
+)
 
 
 class TraceLine(BaseModel):
@@ -115,7 +123,7 @@ class ControllerService:
     async def fresh_view(self, ident: str) -> ControllerView:
         """One controller after reading its status now (``FRESH_READS``)."""
         ref = self.controller(ident)
-        await self.runner.send(ref, [parse(text) for text in FRESH_READS])
+        await self.runner.send(ref, FRESH_READS)
         return self.view(ref.id)
 
     def loops(self) -> list[LoopView]:
