@@ -107,9 +107,14 @@ class LoopCore:
         self.eeprom_event = asyncio.Event()
         #: controllers that are deaf until this host time (EE/// erases in silence, §10 EE///)
         self.deaf_until: dict[str, float] = {}
-        #: set by the scheduler when a stop waits; runs the queued stops (EEPROM holds)
+        #: set by the scheduler when a stop waits; ``serve_stops`` runs the queued stops
+        #: (before any frame of a transaction in flight, and while an EEPROM write holds)
         self.stop_waiting = asyncio.Event()
         self.serve_stops: Callable[[], Awaitable[None]] | None = None
+        self._serving_stops = False
+        #: stops sent per controller from inside another transaction: one that a stop to its
+        #: controller overtook sends nothing more that acts (``TransactionRunner``)
+        self.stops_sent: dict[str, int] = {}
         #: controllers whose framing read-back failed since the link came up (not retried)
         self.detect_failed: set[str] = set()
         #: controllers that have answered on this loop (kept across reconnects: the line is
@@ -183,10 +188,26 @@ class LoopCore:
     # ------------------------------------------------------------------ one frame
 
     async def send(self, body: str, command: Command, motor: int | None = None) -> Sent:
-        """Send ``command`` once and classify its reply; ``LinkLost`` if the line goes."""
+        """Send ``command`` once and classify its reply; ``LinkLost`` if the line goes.
+
+        A stop queued meanwhile goes first (DESIGN invariant 8): it is the next frame on the
+        wire even in the middle of a transaction.
+        """
+        if self.stop_waiting.is_set():
+            await self.stops_first()
         sent = await self._send(body, command, motor)
         self.check_health(body)
         return sent
+
+    async def stops_first(self) -> None:
+        """Send the queued stops now (not from inside a stop being sent)."""
+        if self._serving_stops or self.serve_stops is None:
+            return
+        self._serving_stops = True
+        try:
+            await self.serve_stops()
+        finally:
+            self._serving_stops = False
 
     def needs_probe(self) -> str | None:
         """After a time-out in silence: a controller to read now (None: no need).
@@ -231,6 +252,8 @@ class LoopCore:
             series=series,
             reply_len=reply_chars(command, reply_framing, len(frame)),
         )
+        # The reply is in: until the next frame is written, only what chooses it hears of it.
+        self.bus.defer()
         self.counters.exchanges += 1
         sent = self._classify(body, command, exchange.event, reply_framing, motor, exchange.late)
         self._after(body, command, sent, framing, motor)

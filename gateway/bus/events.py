@@ -139,30 +139,43 @@ class EventBus(Generic[EventT]):
 
     The loop scheduler's bus carries ``BusEvent``s; the service layer's ``ServiceEvents`` is
     the same bus for its own events.
+
+    The line first (DESIGN invariant 12): the scheduler calls ``defer`` when a reply is in,
+    and from then until its task next yields (its next frame is on the wire by then, or it
+    has nothing to send) events reach only the *urgent* subscribers at once: what decides the
+    next frame (the state cache's selection and motion, the programs that may print). Every
+    other subscriber gets them, in order, right after; before any caller's task wakes up to
+    read its result.
     """
 
     def __init__(self) -> None:
+        self._urgent: list[Callable[[EventT], None]] = []
         self._callbacks: list[Callable[[EventT], None]] = []
         self._queues: list[asyncio.Queue[EventT]] = []
+        #: events waiting for the non-urgent subscribers (None: deliver at once)
+        self._held: list[EventT] | None = None
         #: events dropped because a queue subscriber fell behind (oldest dropped first)
         self.dropped = 0
 
     def subscribe(
-        self, callback: Callable[[EventT], None], *, first: bool = False
+        self, callback: Callable[[EventT], None], *, first: bool = False, urgent: bool = False
     ) -> Callable[[], None]:
         """Call ``callback(event)`` for every event from now on; returns the unsubscriber.
 
-        ``first``: before every other subscriber, whenever they subscribed (the state cache:
-        what a subscriber reads there has always learnt the event it is handed).
+        ``first``: before every other subscriber of its kind, whenever they subscribed (the
+        state cache: what a subscriber reads there has always learnt the event it is handed).
+        ``urgent``: at once even while delivery is deferred (``defer``), before the others:
+        for what the scheduler reads to choose its next frame; it must be quick.
         """
+        group = self._urgent if urgent else self._callbacks
         if first:
-            self._callbacks.insert(0, callback)
+            group.insert(0, callback)
         else:
-            self._callbacks.append(callback)
+            group.append(callback)
 
         def unsubscribe() -> None:
-            if callback in self._callbacks:
-                self._callbacks.remove(callback)
+            if callback in group:
+                group.remove(callback)
 
         return unsubscribe
 
@@ -181,15 +194,40 @@ class EventBus(Generic[EventT]):
         if q in self._queues:
             self._queues.remove(q)
 
+    def defer(self) -> None:
+        """Until the calling task yields, deliver to urgent subscribers only (see the class)."""
+        if self._held is None:
+            self._held = []
+            asyncio.get_running_loop().call_soon(self.release)
+
+    def release(self) -> None:
+        """Deliver what ``defer`` held back, in order (events they publish meanwhile too)."""
+        held, self._held = self._held, None
+        for event in held or ():
+            self._deliver(event)
+
     def publish(self, event: EventT) -> None:
-        """Deliver ``event`` to every subscriber now."""
-        for callback in list(self._callbacks):
-            try:
-                callback(event)
-            except Exception:  # one bad subscriber must not stop the loop
-                log.exception("event subscriber %r failed on %r", callback, event)
+        """Deliver ``event`` to every subscriber now (the urgent ones only, while deferred)."""
+        for callback in self._urgent:
+            self._call(callback, event)
+        if self._held is not None:
+            self._held.append(event)
+        else:
+            self._deliver(event)
+
+    def _deliver(self, event: EventT) -> None:
+        callbacks = self._callbacks
+        for callback in list(callbacks):
+            self._call(callback, event)
         for q in self._queues:
             if q.full():
                 q.get_nowait()
                 self.dropped += 1
             q.put_nowait(event)
+
+    @staticmethod
+    def _call(callback: Callable[[EventT], None], event: EventT) -> None:
+        try:
+            callback(event)
+        except Exception:  # one bad subscriber must not stop the loop
+            log.exception("event subscriber %r failed on %r", callback, event)

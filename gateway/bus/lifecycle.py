@@ -83,7 +83,7 @@ class LoopLifecycle:
             quiet_chars=config.quiet_chars,
         )
         self._programs = ProgramsSeen()
-        self.events.subscribe(self._programs.handle)
+        self.events.subscribe(self._programs.handle, urgent=True)  # the parser's `printing`
         self._link = Link(
             transport,
             self.timing,
@@ -155,8 +155,9 @@ class LoopLifecycle:
         self._unfeed = self._feed(state, first=first)
 
     def _feed(self, state: StateCache, *, first: bool = True) -> Callable[[], None]:
+        # Urgent: the next frame depends on it (selection, motion: ``_must_wait``).
         return self.events.subscribe(
-            lambda e: state.handle(e, queue_depth=len(self._queue)), first=first
+            lambda e: state.handle(e, queue_depth=len(self._queue)), first=first, urgent=True
         )
 
     def _must_wait(self, request: Request) -> bool:
@@ -303,7 +304,9 @@ class LoopLifecycle:
 
     async def _serve_stops(self) -> None:
         """Run the queued stops now (from inside a transaction that holds the line)."""
+        stops = self._core.stops_sent
         while (request := self._queue.pop(only=Priority.STOP)) is not None:
+            stops[request.body] = stops.get(request.body, 0) + 1
             await self._execute(request)
         self._core.stop_waiting.clear()
 
@@ -314,6 +317,7 @@ class LoopLifecycle:
         runner = TransactionRunner(
             self._core, request.body, request.commands, request.motor, request.program
         )
+        outermost = self._idle.is_set()  # a stop runs inside the transaction it overtook
         self._idle.clear()
         try:
             results, exchanges = await runner.run()
@@ -329,11 +333,14 @@ class LoopLifecycle:
             self._fail(request, exc)
             return
         finally:
-            self._idle.set()
+            if outermost:
+                self._idle.set()
         result = TransactionResult(
             self.name, request.body, tuple(results), started, self.clock(), exchanges
         )
         self.counters.transactions += 1
+        # The subscribers hear of it once the next frame is out (the waiters after them).
+        self.events.defer()
         self.events.publish(
             TransactionDone(
                 loop=self.name,
