@@ -192,6 +192,10 @@ async def line_phase(port: int, seconds: float, callers: int) -> tuple[list[floa
         writer.close()
 
     tasks = [asyncio.create_task(caller(n)) for n in range(callers)]
+    # The gateway's line trace of controller 1 notes when each stop is queued.
+    trace = {"enabled": False, "controllers": ["1"], "clear": True}
+    status, text = await http(port, "PUT", "/api/v1/loops/main/trace", trace)
+    assert status == 200, text
     await asyncio.sleep(0.5)
     start, sent = time.monotonic(), []
     reader, writer = await asyncio.open_connection("127.0.0.1", port)
@@ -205,6 +209,18 @@ async def line_phase(port: int, seconds: float, callers: int) -> tuple[list[floa
     done.set()
     await asyncio.gather(*tasks)
     return sent, start, end
+
+
+async def stops_queued(port: int) -> list[float] | None:
+    """When the gateway queued each stop (its trace notes; wall time back to this machine's
+    monotonic clock, which the proxy stamps with). None: a gateway that does not note them."""
+    status, text = await http(port, "GET", "/api/v1/loops/main/trace?controller=1")
+    if status != 200:
+        return None
+    offset = time.time() - time.monotonic()
+    lines = json.loads(text)["lines"]
+    notes = [line["time"] - offset for line in lines if line["note"] == "stop queued"]
+    return notes or None
 
 
 async def sim_lateness(port: int) -> dict[str, Any]:
@@ -273,6 +289,7 @@ async def run(args: argparse.Namespace, bench: Bench) -> dict[str, Any]:
     pid = bench.gateway("gateway", ports["p"], "1,2,3", ports["h"])
     await wait_ready(ports["h"], "/api/v1/axes/x")
     sent, start, end = await line_phase(ports["h"], args.seconds, args.callers)
+    queued = await stops_queued(ports["h"])
     own_late = await sim_lateness(ports["control"])
     # Phase 2: one watched axis moving, nothing else asked.
     move = {"position": 2_000_000, "relative": True, "unit": "pulse"}
@@ -304,7 +321,7 @@ async def run(args: argparse.Namespace, bench: Bench) -> dict[str, Any]:
     cli = parse_start(bench)
     bench.stop(proxy)
     rows = [json.loads(line) for line in record.read_text().splitlines()]
-    line = analyse_line(rows, "main", start, end, sent)
+    line = analyse_line(rows, "main", start, end, sent, queued)
     watched = analyse_watch(rows, "main", *watch)
     naive_frames = analyse_watch(rows, "naive", *naive_window)
     idle_frames = [

@@ -32,6 +32,7 @@ from gateway.bus.events import (
 )
 from gateway.bus.framing_track import hint_from_stray
 from gateway.bus.link import Link, LinkLost
+from gateway.bus.messages import framing_artefact
 from gateway.bus.programs_seen import ProgramsSeen
 from gateway.bus.queue import Request, RequestQueue
 from gateway.bus.requests import LoopDown, Priority, TransactionResult
@@ -368,7 +369,9 @@ class LoopLifecycle:
     # ------------------------------------------------------------------ messages
 
     def _unsolicited(self, event: Unsolicited) -> None:
-        if event.kind is UnsolicitedKind.PROGRAM_OUTPUT and self._framing_artefact(event):
+        if event.kind is UnsolicitedKind.PROGRAM_OUTPUT and framing_artefact(
+            event, self._core.framing, self._link, self.counters
+        ):
             return
         body = event.body
         if body is None and event.kind is UnsolicitedKind.PROGRAM_OUTPUT:
@@ -387,33 +390,6 @@ class LoopLifecycle:
                 raw=event.raw,
             )
         )
-
-    def _framing_artefact(self, event: Unsolicited) -> bool:
-        """Whether "program output" is a reply in a framing the gateway did not expect.
-
-        Such bytes are a framing hint, not a program's output, and are not published.
-        """
-        tracker, body, link = self._core.framing, event.body, self._link
-        if link.is_echo(event.raw):
-            # Our own frame came back: the controller has EE1 on (§10 EE).
-            if body is not None:
-                tracker.suspect(body, "the frame came back (EE1?)")
-            return True
-        if body is not None and body == link.pending_body and tracker.suspicion(body):
-            self.counters.garbled += 1  # the data part that followed that echo
-            return True
-        last = link.last_body
-        # '>@' of ER1 read as '>' then '@' while ER0 was assumed (§10 ER); a running
-        # program's '@' comes from a controller whose framing was read back.
-        if (
-            event.raw == b"@"
-            and last is not None
-            and not tracker.confirmed(last)
-            and not tracker.get(last).error_mark
-        ):
-            tracker.suspect(last, "'@' after '>' (ER1?)")
-            return True
-        return False
 
     def _stray(self, event: ReplyEvent, body: str | None) -> None:
         if body is None:
