@@ -90,6 +90,7 @@ class LoopCore:
         counters: Counters,
         bus: EventBus[BusEvent],
         clock: Callable[[], float],
+        serve_stops: Callable[[], Awaitable[None]] | None = None,
     ) -> None:
         self.name = name
         self.config = config
@@ -110,7 +111,7 @@ class LoopCore:
         #: set by the scheduler when a stop waits; ``serve_stops`` runs the queued stops
         #: (before any frame of a transaction in flight, and while an EEPROM write holds)
         self.stop_waiting = asyncio.Event()
-        self.serve_stops: Callable[[], Awaitable[None]] | None = None
+        self.serve_stops = serve_stops
         self._serving_stops = False
         #: stops sent per controller from inside another transaction: one that a stop to its
         #: controller overtook sends nothing more that acts (``TransactionRunner``)

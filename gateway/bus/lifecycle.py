@@ -30,9 +30,8 @@ from gateway.bus.events import (
     TransactionDone,
     UnsolicitedMessage,
 )
-from gateway.bus.framing_track import hint_from_stray
 from gateway.bus.link import Link, LinkLost
-from gateway.bus.messages import framing_artefact
+from gateway.bus.messages import framing_artefact, stray_hint
 from gateway.bus.programs_seen import ProgramsSeen
 from gateway.bus.queue import Request, RequestQueue
 from gateway.bus.requests import LoopDown, Priority, TransactionResult
@@ -97,9 +96,15 @@ class LoopLifecycle:
             programs=self._programs,
         )
         self._core = LoopCore(
-            self.name, config, self.timing, self._link, self.counters, self.events, clock
+            self.name,
+            config,
+            self.timing,
+            self._link,
+            self.counters,
+            self.events,
+            clock,
+            serve_stops=self._serve_stops,
         )
-        self._core.serve_stops = self._serve_stops
         self._wake = asyncio.Event()
         self._queue = RequestQueue(self.name, clock, self._queued, aging=config.poll_aging_real)
         self.state = LinkState.CONNECTING
@@ -392,8 +397,4 @@ class LoopLifecycle:
         )
 
     def _stray(self, event: ReplyEvent, body: str | None) -> None:
-        if body is None:
-            return
-        why = hint_from_stray(event, self._core.framing.get(body))
-        if why is not None:
-            self._core.framing.suspect(body, why)
+        stray_hint(event, body, self._core.framing)

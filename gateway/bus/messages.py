@@ -8,11 +8,20 @@ scheduler's ``FramingTracker``, never published as program output.
 from __future__ import annotations
 
 from gateway.bus.counters import Counters
-from gateway.bus.framing_track import FramingTracker
+from gateway.bus.framing_track import FramingTracker, hint_from_stray
 from gateway.bus.link import Link
-from gateway.protocol.reply_parser import Unsolicited
+from gateway.protocol.reply_parser import ReplyEvent, Unsolicited
 
-__all__ = ["framing_artefact"]
+__all__ = ["framing_artefact", "stray_hint"]
+
+
+def stray_hint(event: ReplyEvent, body: str | None, tracker: FramingTracker) -> None:
+    """A reply nobody awaited, after ``body``'s: what it suggests of that framing."""
+    if body is None:
+        return
+    why = hint_from_stray(event, tracker.get(body))
+    if why is not None:
+        tracker.suspect(body, why)
 
 
 def framing_artefact(
