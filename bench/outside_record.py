@@ -86,6 +86,7 @@ def analyse_line(
     gaps = [following[id(x)].sent - x.reply_end for x in answered if id(x) in following]
     latencies, excess, behind, in_gap = [], [], 0, 0
     enqueue, to_wire, queued_excess, behind_after_queued = [], [], [], 0
+    overtaken: list[dict[str, object]] = []
     queued = sorted(stops_queued or [])
     for sent in stops_sent:
         after = [x for x in every if x.sent >= sent]
@@ -105,7 +106,16 @@ def analyse_line(
             to_wire.append(wire - mark)
             busy = [x for x in every if x.sent < mark <= x.reply_end]
             queued_excess.append(wire - mark - (busy[-1].reply_end - mark if busy else 0.0))
-            behind_after_queued += any(mark < x.sent < wire for x in after[:stop])
+            ahead = [x for x in after[:stop] if mark < x.sent < wire]
+            behind_after_queued += bool(ahead)
+            if ahead:  # what went out between the queueing and the stop (ms after queued)
+                overtaken.append(
+                    {
+                        "http_to_queued_ms": _ms(mark - sent),
+                        "ahead": [(x.frame, _ms(x.sent - mark)) for x in ahead],
+                        "stop_ms": _ms(wire - mark),
+                    }
+                )
     figures: dict[str, object] = {
         "exchanges": len(window),
         "line_efficiency": round(sum(x.ideal for x in window) / (end - start), 4),
@@ -135,6 +145,7 @@ def analyse_line(
             "stop_queued_over_in_flight_ms_p50": _ms(percentile(queued_excess, 0.5)),
             "stop_queued_over_in_flight_ms_p99": _ms(percentile(queued_excess, 0.99)),
             "stops_behind_another_exchange_once_queued": behind_after_queued,
+            "stops_overtaken_once_queued": overtaken,
         }
     return figures
 
