@@ -82,6 +82,7 @@ class LoopLifecycle:
             host_latency=config.host_latency,
             quiet_chars=config.quiet_chars,
         )
+        self._wake = asyncio.Event()
         self._programs = ProgramsSeen()
         self.events.subscribe(self._programs.handle, urgent=True)  # the parser's `printing`
         self._link = Link(
@@ -91,7 +92,7 @@ class LoopLifecycle:
             self.trace,
             on_unsolicited=self._unsolicited,
             on_stray=self._stray,
-            on_lost=self._wake_up,
+            on_lost=self._wake.set,
             clock=clock,
             programs=self._programs,
         )
@@ -105,7 +106,6 @@ class LoopLifecycle:
             clock,
             serve_stops=self._serve_stops,
         )
-        self._wake = asyncio.Event()
         self._queue = RequestQueue(self.name, clock, self._queued, aging=config.poll_aging_real)
         self.state = LinkState.CONNECTING
         self.cause = "not connected yet"
@@ -129,9 +129,6 @@ class LoopLifecycle:
     def _queued(self) -> None:
         if self._queue.head_priority() is Priority.STOP:
             self._core.stop_waiting.set()
-        self._wake.set()
-
-    def _wake_up(self) -> None:
         self._wake.set()
 
     def down_error(self) -> LoopDown:
@@ -162,9 +159,10 @@ class LoopLifecycle:
 
     def _feed(self, state: StateCache, *, first: bool = True) -> Callable[[], None]:
         # Urgent: the next frame depends on it (selection, motion: ``_must_wait``).
-        return self.events.subscribe(
-            lambda e: state.handle(e, queue_depth=len(self._queue)), first=first, urgent=True
-        )
+        def feed(e: BusEvent) -> None:  # the depth (a count) only where it is published
+            state.handle(e, queue_depth=len(self._queue) if type(e) is TransactionDone else None)
+
+        return self.events.subscribe(feed, first=first, urgent=True)
 
     def _must_wait(self, request: Request) -> bool:
         """A per-motor request whose F would be refused now: a motor of its controller moves
