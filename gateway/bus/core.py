@@ -45,7 +45,7 @@ from gateway.protocol.reply_parser import (
     NotAccepted,
     ReplyEvent,
 )
-from gateway.protocol.spec import ReplyFormat, Scope
+from gateway.protocol.spec import Effect, ReplyFormat, Scope
 
 __all__ = ["DOUBT", "FRAMING_KEYS", "LoopCore", "Sent", "decode_for"]
 
@@ -54,6 +54,8 @@ _PROBE = confirm_command()
 
 #: Kinds after which nobody knows what the controller did or how it is set up.
 DOUBT = frozenset({ReplyKind.TIMEOUT, ReplyKind.GARBLED, ReplyKind.CHECKSUM})
+#: Replies every subscriber hears at once (``EventBus.defer`` is for the others).
+_AT_ONCE = frozenset({Effect.MOTION, Effect.STOP})
 #: The forms that switch the framing (§10 EE, EL, ER, SUM).
 FRAMING_KEYS = frozenset({"EE1", "EE0", "EL1", "EL0", "ER1", "ER0", "SUM1", "SUM0"})
 
@@ -254,7 +256,10 @@ class LoopCore:
             reply_len=reply_chars(command, reply_framing, len(frame)),
         )
         # The reply is in: until the next frame is written, only what chooses it hears of it.
-        self.bus.defer()
+        # Not after a motion or a stop: a subscriber may withdraw what must not follow it
+        # (the poller's reads that are refused while a motor moves, 動作中 ×).
+        if command.form.effect not in _AT_ONCE:
+            self.bus.defer()
         self.counters.exchanges += 1
         sent = self._classify(body, command, exchange.event, reply_framing, motor, exchange.late)
         self._after(body, command, sent, framing, motor)

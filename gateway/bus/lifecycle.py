@@ -1,12 +1,12 @@
 """The running side of a loop's scheduler: connect, serve the queue, go down, reconnect.
 
 One task runs the queue: the highest priority first, FIFO within a priority, one transaction
-at a time, a stop as soon as the transaction in flight ends (DESIGN invariant 8). When the
-transport raises ``TransportClosed``, or ``timeouts_to_down`` time-outs in a row bring no byte
-at all, the loop goes DOWN: queued requests fail at once with ``LoopDown`` (with a retry-after
-hint) and the port is reopened with backoff. When it is back, the motor-selection and framing
-caches are dropped and ``LinkUp`` is published: the state layer re-reads the controllers from
-the devices, never from cache. ``scheduler.LoopScheduler`` adds the callers' side.
+at a time; a stop before the next frame, inside a transaction too (DESIGN invariant 8,
+``LoopCore.send``). When the transport raises ``TransportClosed``, or ``timeouts_to_down``
+time-outs in a row bring no byte, the loop goes DOWN: queued requests fail at once with
+``LoopDown`` (with a retry-after hint) and the port is reopened with backoff (doubling, with
+jitter). Once back, the selection and framing caches are dropped and ``LinkUp`` is published:
+the state layer re-reads the controllers from the devices. ``scheduler`` adds the callers' side.
 """
 
 from __future__ import annotations
@@ -43,6 +43,7 @@ from gateway.bus.transaction import TransactionRunner
 from gateway.protocol.framing import BODY_NUMBERS
 from gateway.protocol.reply_parser import ReplyEvent, Unsolicited, UnsolicitedKind
 from gateway.transport.base import Transport, TransportClosed
+from gateway.transport.factory import Backoff
 
 __all__ = ["LinkState", "LoopLifecycle"]
 
@@ -109,12 +110,13 @@ class LoopLifecycle:
         self._queue = RequestQueue(self.name, clock, self._queued, aging=config.poll_aging_real)
         self.state = LinkState.CONNECTING
         self.cause = "not connected yet"
-        self._backoff = config.reconnect_initial_real
+        first = max(1e-6, min(config.reconnect_initial_real, config.reconnect_max_real))
+        self._backoff = Backoff(first, max(first, config.reconnect_max_real))  # with jitter
+        self._delay = self._backoff.next_delay()  # the next wait before reopening
         self._retry_at: float | None = None
         self._task: asyncio.Task[None] | None = None
         self._first_attempt = asyncio.Event()
-        #: set while no transaction is in flight (graceful shutdown waits on it)
-        self._idle = asyncio.Event()
+        self._idle = asyncio.Event()  # set while no transaction is in flight (shutdown waits)
         self._idle.set()
         #: the state cache the scheduler feeds first and reads: its own until ``use_state``
         self.state_cache: StateCache = self._core.state
@@ -127,7 +129,7 @@ class LoopLifecycle:
         return self.counters.snapshot()
 
     def _queued(self) -> None:
-        if self._queue.head_priority() is Priority.STOP:
+        if self._queue.head_priority() is Priority.STOP:  # before any frame of a transaction
             self._core.stop_waiting.set()
         self._wake.set()
 
@@ -209,8 +211,8 @@ class LoopLifecycle:
                 self._first_attempt.set()
                 # Backoff after a failed open and after a loss alike; it is reset by a
                 # transaction that heard the line, so a dead line is not reopened in a spin.
-                await asyncio.sleep(self._backoff)
-                self._backoff = min(self._backoff * 2, self.config.reconnect_max_real)
+                await asyncio.sleep(self._delay)
+                self._delay = self._backoff.next_delay()
         finally:
             self._first_attempt.set()
 
@@ -227,7 +229,7 @@ class LoopLifecycle:
                 await self._go_down(f"cannot open {self.transport.url}: {exc}")
             else:
                 self.cause = f"cannot open {self.transport.url}: {exc}"
-                self._retry_at = self.clock() + self._backoff
+                self._retry_at = self.clock() + self._delay
             return False
         self._link.start()
         self._forget_all()
@@ -274,14 +276,14 @@ class LoopLifecycle:
         self.state = LinkState.DOWN
         self.cause = cause
         self.counters.link_downs += 1
-        self._retry_at = self.clock() + self._backoff
+        self._retry_at = self.clock() + self._delay
         log.warning("loop %s down: %s", self.name, cause)
         self._fail_queued()
         await self._link.stop()
         with contextlib.suppress(Exception):
             await self.transport.close()
         self.events.publish(
-            LinkDown(loop=self.name, time=self.clock(), cause=cause, retry_after=self._backoff)
+            LinkDown(loop=self.name, time=self.clock(), cause=cause, retry_after=self._delay)
         )
 
     async def _serve(self) -> None:
@@ -303,8 +305,9 @@ class LoopLifecycle:
                 await self._wake.wait()
                 continue
             await self._execute(request)
-            if self._link.heard_any:
-                self._backoff = self.config.reconnect_initial_real
+            if self._link.heard_any and self._backoff.attempts > 1:
+                self._backoff.reset()
+                self._delay = self._backoff.next_delay()
 
     async def _serve_stops(self) -> None:
         """Run the queued stops now (from inside a transaction that holds the line)."""
@@ -365,9 +368,8 @@ class LoopLifecycle:
 
     @staticmethod
     def _fail(request: Request, error: Exception) -> None:
-        for waiter in request.waiters:
-            if not waiter.future.done():
-                waiter.future.set_exception(error)
+        for waiter in (w for w in request.waiters if not w.future.done()):
+            waiter.future.set_exception(error)
 
     # ------------------------------------------------------------------ messages
 

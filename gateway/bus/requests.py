@@ -40,7 +40,7 @@ STOP_KEYS = frozenset({"S", "SS", "GES"})
 class Priority(IntEnum):
     """Queue order: lower goes first; FIFO within one priority."""
 
-    STOP = 0  # S, SS, GES: out as soon as the transaction in flight ends
+    STOP = 0  # S, SS, GES: the next frame out, even inside a transaction in flight
     OPERATOR = 1  # commands of people and integrations
     POLL = 2  # background polling
 
