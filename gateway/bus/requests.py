@@ -1,7 +1,9 @@
 """What a caller hands the loop scheduler and what it gets back.
 
 A request is one *transaction*: a sequence of commands to one controller that no other request
-interleaves (issue 4, "Atomic transactions"). Its ``Priority`` decides its place in the queue;
+interleaves, except a stop: it goes before the transaction's next frame, and one to the same
+controller ends what the transaction had still to do that acts. Its ``Priority`` decides its
+place in the queue;
 its result says, per command, what the controller answered and whether the command took effect
 (``Outcome``): after a lost reply the scheduler reads the axis back instead of guessing
 (DESIGN.md invariant 6), so a caller always learns ``DONE``, ``NOT_DONE`` or ``UNKNOWN``.
