@@ -2,7 +2,7 @@
 
 A server process runs the real app (``create_app``) on an in-process simulated loop (three
 controllers, real-time line timing, polling as in production) under uvicorn on 127.0.0.1;
-this process is the clients. Two figures (issue 5, "Benchmark"):
+this process is the clients. Two figures:
 
 * ``http``: requests per second of ``GET /api/v1/axes/{id}`` (the cached state, no line
   traffic) against ``GET /api/v1/bench/trivial`` (a route that returns a constant) on the
@@ -14,6 +14,11 @@ this process is the clients. Two figures (issue 5, "Benchmark"):
   scheduler feeds it); the lag of each delivered change is the client's receive time minus
   the message's ``time`` (the server's wall clock when the feed published it): p50, p99 and
   max in milliseconds (target p99 <= 50 ms), and whether every client got every change.
+  ``server_publish_ms`` is the server's own part: one change from the state cache to the
+  last client written in the same call (p50, p99, max), with the collections the collector
+  ran meanwhile. The clients read frames with a dozen bytecodes each (``LightClient``) on
+  uvloop: with the websockets library parsing 1,000 sockets' frames, this process was the
+  larger part of the lag it measured.
 
     .venv/bin/python bench/api.py                         # 5 s each, 1,000 clients
     .venv/bin/python bench/api.py --quick                 # what make bench runs
@@ -38,7 +43,7 @@ from typing import Any
 
 import httpx
 from websockets.client import ClientProtocol
-from websockets.frames import Frame, Opcode
+from websockets.frames import Opcode
 from websockets.http11 import Response
 from websockets.uri import parse_uri
 
@@ -59,8 +64,8 @@ async def serve(rate_limit: int) -> None:
     from gateway.api.security import AuthConfig
     from gateway.bus.events import ReplyObserved
     from gateway.protocol.registry import parse
-    from gateway.service.gateway import Gateway
-    from gateway.service.simulated import SIM_LOOP, simulated_config
+    from gateway.service.runtime.runtime import Runtime
+    from gateway.service.runtime.simulated import SIM_LOOP, simulated_config
     from gateway.sim.cli import build_loop
     from gateway.sim.clock import SimClock
     from gateway.sim.serve import SimPort
@@ -69,12 +74,27 @@ async def serve(rate_limit: int) -> None:
     sim = build_loop(["1", "2", "3"], clock=SimClock(1.0))
     config = simulated_config(("1", "2", "3"))
     transport = PipeTransport(lambda: SimPort(sim))
-    gateway = Gateway(config, transports={SIM_LOOP: transport})
+    gateway = Runtime(config, transports={SIM_LOOP: transport})
     app: FastAPI = create_app(gateway, auth=AuthConfig(no_auth=True))
 
     @app.get(f"{API_PREFIX}/bench/trivial")
     async def trivial() -> dict[str, bool]:
         return {"ok": True}
+
+    publish_ms: list[float] = []
+    # Collections during the fan-out, by generation: (count, longest pause in ms). A pause
+    # of the whole process shows in the lag; the heap is frozen before it, as serve does.
+    collections: dict[int, list[float]] = {}
+    collecting: list[float] = []
+
+    def on_gc(phase: str, info: dict[str, int]) -> None:
+        if phase == "start":
+            collecting.append(time.perf_counter())
+        elif collecting:
+            took = (time.perf_counter() - collecting.pop()) * 1000
+            seen = collections.setdefault(info["generation"], [0, 0.0])
+            seen[0] += 1
+            seen[1] = max(seen[1], took)
 
     async def inject(rate: float, seconds: float) -> None:
         # Positions the poller never reads back (it reads motor 1 when idle, every second,
@@ -86,7 +106,9 @@ async def serve(rate_limit: int) -> None:
             reply = ReplyObserved(
                 loop=SIM_LOOP, time=time.monotonic(), body="1", command=command, value=pulses
             )
-            gateway.state.handle(reply)
+            began = time.perf_counter()
+            gateway.state.handle(reply)  # the feed publishes it to every client in this call
+            publish_ms.append((time.perf_counter() - began) * 1000)
             due += 1 / rate
             await asyncio.sleep(max(0.0, due - time.monotonic()))
 
@@ -97,10 +119,29 @@ async def serve(rate_limit: int) -> None:
         if freeze:  # what a server can do once started: no GC pass scans the startup heap
             gc.collect()
             gc.freeze()
+        collections.clear()
+        if on_gc not in gc.callbacks:
+            gc.callbacks.append(on_gc)
         task = asyncio.create_task(inject(min(rate, rate_limit), seconds))
         tasks.add(task)
         task.add_done_callback(tasks.discard)
         return {"started": True}
+
+    @app.get(f"{API_PREFIX}/bench/publish")
+    async def publish() -> dict[str, Any]:
+        # The feed's own share of the lag: from the change to the last direct write.
+        times = sorted(publish_ms)
+        q = statistics.quantiles(times, n=100, method="inclusive") if len(times) > 1 else [0.0] * 99
+        gcs = {f"gen{g}": [n, round(ms, 2)] for g, (n, ms) in sorted(collections.items())}
+        clients = list(app.state.feed._clients)
+        return {
+            # Clients the feed writes through their queue and sender task only.
+            "clients_without_direct_writer": sum(c.direct is None for c in clients),
+            "p50": round(q[49], 2),
+            "p99": round(q[98], 2),
+            "max": round(times[-1], 2),
+            "gc_collections_and_longest_ms": gcs,
+        }
 
     @app.get(f"{API_PREFIX}/bench/cpu")
     async def cpu() -> dict[str, float]:
@@ -181,31 +222,74 @@ def own_cpu() -> float:
 
 
 class LightClient(asyncio.Protocol):
-    """A WebSocket client on the websockets library's sans-I/O protocol: stamps each frame
-    when its bytes arrive and does little else, so that 1,000 of them in one process cost
-    the server's CPU as little as possible (the benchmark measures the server)."""
+    """A WebSocket client that stamps each frame when its bytes arrive and does little else,
+    so that 1,000 of them in one process read their sockets soon after the server wrote them
+    (the lag is the server's fan-out plus the time this process takes to come to a socket).
+
+    The handshake goes through the websockets library's sans-I/O protocol, which also frames
+    what the client sends (masked, as RFC 6455 wants); what the server sends after it is read
+    here: unmasked frames, text or ping (answered with a pong), a dozen bytecodes a frame
+    rather than the library's generator-based parser."""
 
     def __init__(self, uri: str, on_text: Callable[[float, bytes], None]) -> None:
         self.protocol = ClientProtocol(parse_uri(uri), max_size=None)
         self.on_text = on_text
         self.opened: asyncio.Future[None] = asyncio.get_running_loop().create_future()
-        self.transport: asyncio.Transport | None = None
+        self.transport: Any = None  # uvloop's transports are no asyncio.Transport
+        self.raw = False  # True once the handshake is done: frames are read here
+        self.pending = b""  # the start of a frame whose end has not come yet
 
     def connection_made(self, transport: asyncio.BaseTransport) -> None:
-        assert isinstance(transport, asyncio.Transport)
         self.transport = transport
         self.protocol.send_request(self.protocol.connect())
         self.flush()
 
     def data_received(self, data: bytes) -> None:
         now = time.time()
+        if self.raw:
+            self.frames(now, data)
+            return
         self.protocol.receive_data(data)
         for event in self.protocol.events_received():
             if isinstance(event, Response) and not self.opened.done():
+                # The server says nothing before the client subscribes: no frame is held
+                # in the library's buffer when reading switches to frames().
+                self.raw = True
                 self.opened.set_result(None)
-            elif isinstance(event, Frame) and event.opcode is Opcode.TEXT:
-                self.on_text(now, bytes(event.data))
-        self.flush()  # pongs to the server's pings
+        self.flush()
+
+    def frames(self, now: float, data: bytes) -> None:
+        buf = self.pending + data if self.pending else data
+        at, end = 0, len(buf)
+        while end - at >= 2:
+            first, size = buf[at], buf[at + 1]
+            assert not size & 0x80 and first & 0x80, "a server frame: unmasked, final"
+            size &= 0x7F
+            head = 2
+            if size == 126:
+                if end - at < 4:
+                    break
+                size, head = int.from_bytes(buf[at + 2 : at + 4], "big"), 4
+            elif size == 127:
+                if end - at < 10:
+                    break
+                size, head = int.from_bytes(buf[at + 2 : at + 10], "big"), 10
+            stop = at + head + size
+            if stop > end:
+                break
+            opcode = first & 0x0F
+            if opcode == Opcode.TEXT.value:
+                self.on_text(now, buf[at + head : stop])
+            elif opcode == Opcode.PING.value:
+                self.pong(buf[at + head : stop])
+            at = stop
+        self.pending = buf[at:]
+
+    def pong(self, payload: bytes) -> None:
+        assert self.transport is not None
+        mask = os.urandom(4)
+        masked = bytes(b ^ mask[i % 4] for i, b in enumerate(payload))
+        self.transport.write(bytes((0x8A, 0x80 | len(payload))) + mask + masked)
 
     def send_text(self, text: str) -> None:
         self.protocol.send_text(text.encode())
@@ -262,6 +346,11 @@ async def ws_bench(
     for conn in conns:
         conn.send_text(json.dumps({"type": "subscribe", "topics": [f"axis:{AXIS}"]}))
     await asyncio.wait_for(snapshots.wait(), 60)
+    # No collection in this process while it stamps arrivals: a full pass over the 100,000
+    # arrivals it keeps paused the reading of every socket by 100-400 ms, now and then.
+    gc.collect()
+    gc.freeze()
+    gc.disable()
     async with httpx.AsyncClient(base_url=base) as client:
         server_before, own_before, start = await server_cpu(client), own_cpu(), time.monotonic()
         params = {"rate": rate, "seconds": seconds, "freeze": freeze}
@@ -272,6 +361,8 @@ async def ws_bench(
         elapsed = time.monotonic() - start
         server_share = (await server_cpu(client) - server_before) / elapsed
         client_share = (own_cpu() - own_before) / elapsed
+        publish = (await client.get("/bench/publish")).json()
+    gc.enable()
     for conn in conns:
         conn.close()
     lags, counts = [], [0] * clients
@@ -292,6 +383,9 @@ async def ws_bench(
         "lag_ms_p99": round(q[98], 2),
         "lag_ms_max": round(lags_ms[-1], 2) if lags_ms else None,
         "target_p99_ms": 50,
+        # One change from the state cache to the last client written in the same call
+        # (encode once, a socket write per client): the server's part of the lag.
+        "server_publish_ms": publish,
         "cpu_share": {"server": round(server_share, 2), "clients": round(client_share, 2)},
         # What the fan-out costs the server whatever else the machine runs (the lag is the
         # clients' too: on a busy machine they read 1,000 sockets late).
@@ -363,4 +457,8 @@ if __name__ == "__main__":
         with runner:
             runner.run(serve(rate_limit=10_000))
     else:
-        print(json.dumps(asyncio.run(main(arguments)), indent=2))
+        # The clients on uvloop too where it is installed: 1,000 sockets read at its cost.
+        from gateway.cli.serve import event_loop_runner
+
+        with event_loop_runner() as runner:
+            print(json.dumps(runner.run(main(arguments)), indent=2))

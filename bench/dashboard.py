@@ -74,8 +74,8 @@ async def serve() -> None:
     from gateway.api.security import AuthConfig
     from gateway.bus.events import ReplyObserved
     from gateway.protocol.registry import parse
-    from gateway.service.gateway import Gateway
-    from gateway.service.simulated import SIM_LOOP, simulated_config
+    from gateway.service.runtime.runtime import Runtime
+    from gateway.service.runtime.simulated import SIM_LOOP, simulated_config
     from gateway.sim.cli import build_loop
     from gateway.sim.clock import SimClock
     from gateway.sim.serve import SimPort
@@ -83,7 +83,7 @@ async def serve() -> None:
 
     sim = build_loop(BODIES, clock=SimClock(1.0))
     config = simulated_config(BODIES)
-    gateway = Gateway(config, transports={SIM_LOOP: PipeTransport(lambda: SimPort(sim))})
+    gateway = Runtime(config, transports={SIM_LOOP: PipeTransport(lambda: SimPort(sim))})
     app: FastAPI = create_app(gateway, auth=AuthConfig(no_auth=True))
     reads = {1: parse("61"), 2: parse("62")}
     tasks: set[asyncio.Task[None]] = set()

@@ -5,7 +5,7 @@ The simulated loop runs at the line's real character timing (``--time-scale 1``,
 callers over three controllers. The simulator's own line log is the ruler: for every frame the
 controllers heard, the wire time of the command, the turnaround and the wire time of the reply
 (10 bits a character) count as busy; the figure is busy time over elapsed time in the measured
-window (target >= 0.97, issue 4). Meanwhile a stop is submitted now and then; its latency is the
+window (target >= 0.97). Meanwhile a stop is submitted now and then; its latency is the
 time from ``submit`` to the moment the controller has heard the whole ``S`` frame, in device
 milliseconds (p50 and p99).
 

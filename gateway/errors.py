@@ -8,7 +8,7 @@
     │   └── ProgramError ......... a user program breaks a rule of chapters 11-12 (names the step)
     ├── ProtocolError ............ bytes from the device are not what the manual allows
     │   └── ReplyFormatError ..... a reply's data part does not decode as its command's reply
-    └── ServiceError ............. what the service layer refuses or could not do (issue 5)
+    └── ServiceError ............. what the service layer refuses or could not do
         ├── NotFoundError ........ no loop, controller, axis or operation by that id or name
         ├── ConflictError ........ the resource is busy: moving, leased by another client
         └── DeviceError .......... the device did not answer, or its answer leaves doubt

@@ -74,7 +74,8 @@ async def test_a_simulated_cell_from_a_file_asks_for_its_tokens_and_logs_none(
     assert process.stderr is not None
     lines: list[str] = []
     try:
-        while not any("Application startup complete" in line for line in lines):
+        # Not "Application startup complete": uvicorn says that before it binds the port.
+        while not any("Uvicorn running on" in line for line in lines):
             line = await asyncio.wait_for(process.stderr.readline(), WAIT)
             assert line, "".join(lines)
             lines.append(line.decode())

@@ -1,1 +1,1 @@
-"""The REST and WebSocket API (issue 5): FastAPI routes over the service layer."""
+"""The REST and WebSocket API: FastAPI routes over the service layer."""

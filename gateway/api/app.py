@@ -4,9 +4,9 @@
 routers read them from there) and mounts every router under ``/api/v1``; ``/healthz``,
 ``/readyz`` and ``/metrics`` stay at the root for probes and scrapers; the browser dashboard is
 served at ``/`` and the API docs at ``/api/v1/docs`` from the package's own files
-(``gateway.api.dashboard``). The app's lifespan
-starts the gateway's loops and, on shutdown, stops accepting requests, lets each loop's
-transaction in flight finish and closes the ports (issue 5, "Graceful shutdown").
+(``gateway.api.dashboard``). The app's lifespan starts the gateway's loops and, on shutdown,
+stops accepting requests, lets each loop's transaction in flight finish (a move half-sent is
+worse than one refused) and closes the ports.
 """
 
 from __future__ import annotations
@@ -33,19 +33,20 @@ from gateway.api.audit import AuditLog, control_entry, install_audit, resolution
 from gateway.api.body_gate import BodyGate
 from gateway.api.dashboard import install_dashboard
 from gateway.api.hardening import HardeningMiddleware
-from gateway.api.health import install_operations
+from gateway.api.health import install_health_and_metrics
 from gateway.api.idempotency import install_idempotency
 from gateway.api.openapi_docs import install_openapi_docs, operation_id
 from gateway.api.problems import install_problem_handlers
+from gateway.api.read_path import AxisReadPath
 from gateway.api.redaction import install_log_redaction
 from gateway.api.security import AuthConfig, install_security
-from gateway.service.axes import AxisService
+from gateway.service.axes.service import AxisService
 from gateway.service.baud import BaudChanger
-from gateway.service.controllers import ControllerService
+from gateway.service.controllers.service import ControllerService
 from gateway.service.feed import Feed
-from gateway.service.gateway import Gateway
 from gateway.service.leases import Leases
-from gateway.service.operations import Operations
+from gateway.service.operations.registry import Operations
+from gateway.service.runtime.runtime import Runtime
 from gateway.service.stops import StopAll
 
 __all__ = ["API_PREFIX", "create_app"]
@@ -74,7 +75,7 @@ REST and WebSocket access to RORZE RC-233 controllers on RS-232C loops.
 """
 
 
-def create_app(gateway: Gateway, *, auth: AuthConfig) -> FastAPI:
+def create_app(gateway: Runtime, *, auth: AuthConfig) -> FastAPI:
     """The application serving ``gateway`` with ``auth`` (tokens, or no-auth mode)."""
     audit = AuditLog(gateway.config.audit_log)
     leases = Leases()
@@ -142,16 +143,19 @@ def create_app(gateway: Gateway, *, auth: AuthConfig) -> FastAPI:
         app.include_router(module.router, prefix=API_PREFIX)
     ws.install_ws(app, feed)
     install_dashboard(app, API_PREFIX)
-    # Middleware added later wraps what was added before: the problem handlers innermost,
-    # then security, idempotency, the body gate (inside the audit, which records what it
-    # refuses), audit, metrics, and CORS outermost so that error responses carry the CORS
-    # headers too.
+    # Middleware added later wraps what was added before: the cached read innermost, then
+    # the problem handlers, security, idempotency, the body gate (inside the audit, which
+    # records what it refuses), audit, metrics, and CORS outermost so that error responses
+    # carry the CORS headers too.
+    # Innermost: the plain cached read of an axis, answered without routing (every layer
+    # outside still applies to it); anything else it hands on.
+    app.add_middleware(AxisReadPath, gateway=gateway, prefix=API_PREFIX)
     install_problem_handlers(app)
     install_security(app, auth)
     install_idempotency(app)
     app.add_middleware(BodyGate)
     install_audit(app, audit)
-    install_operations(app, gateway)
+    install_health_and_metrics(app, gateway)
     install_openapi_docs(app)
     security = gateway.config.security
     closed = ([] if security.open_metrics else ["/metrics"]) + (

@@ -1,4 +1,5 @@
-"""The audit log (issue 5, "Security and audit"): every mutating request, one JSON line each.
+"""The audit log, to answer "who did this to the machine": every mutating request, one JSON
+line each.
 
 ``AuditMiddleware`` appends an entry for every POST, PUT, PATCH and DELETE, refused ones too
 (401, 403, 422): time (ISO 8601 UTC), token name and role, client address, method, path,
@@ -25,13 +26,14 @@ from fastapi import APIRouter, Depends, FastAPI, Query, Request
 from pydantic import BaseModel, ConfigDict, Field
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
+from gateway.api.asgi_status import call_noting_status
 from gateway.api.audit_log import MEMORY, AuditLog
 from gateway.api.problems import PROBLEM_RESPONSES
 from gateway.api.redaction import redact
 from gateway.api.security import Principal, principal_of, require
 from gateway.errors import InvalidInputError
 from gateway.service.control import ControlChange
-from gateway.service.operation_types import Operation
+from gateway.service.operations.types import Operation
 from gateway.service.roles import Role
 
 __all__ = [
@@ -136,13 +138,6 @@ class AuditMiddleware:
         when, began = utc_now(), time.perf_counter()
         kept = bytearray()
         total = 0
-        status: int | None = None
-
-        async def tee(message: Message) -> None:
-            nonlocal status
-            if message["type"] == "http.response.start":
-                status = int(message["status"])
-            await send(message)
 
         async def reading() -> Message:
             nonlocal total
@@ -154,13 +149,10 @@ class AuditMiddleware:
                     kept.extend(chunk[: BODY_LIMIT + 1 - len(kept)])
             return message
 
-        try:
-            await self.app(scope, reading, tee)
-        except Exception:
-            status = status or 500
-            raise
-        finally:
+        def record(status: int | None) -> None:
             self._record(scope, state, when, began, bytes(kept), total, status)
+
+        await call_noting_status(self.app, scope, reading, send, record)
 
     def _record(
         self,

@@ -1,9 +1,10 @@
-"""The operations routes at the root, open without a token (issue 5, "Operations").
+"""The health and metrics routes at the root, open without a token (a probe or a scraper
+has none).
 
 ``/healthz``: the process answers (200). ``/readyz``: 200 when every loop is up and the audit
 log's file takes its lines, else a 503 problem naming the loops that are down (``loops_down``)
 and the audit log's failure. ``/metrics``: Prometheus text (the audit log's series too).
-``install_operations(app, gateway)`` sets them up with the HTTP metrics middleware.
+``install_health_and_metrics(app, gateway)`` sets them up with the HTTP metrics middleware.
 """
 
 from __future__ import annotations
@@ -16,9 +17,9 @@ from pydantic import BaseModel
 
 from gateway.api.metrics import CONTENT_TYPE, HttpMetricsMiddleware, Metrics, MetricsSource, WsStats
 from gateway.api.problems import PROBLEM_MEDIA_TYPE, Problem, problem_response, problem_type
-from gateway.bus.lifecycle import LinkState
+from gateway.service.runtime.bus_types import LinkState
 
-__all__ = ["Health", "Readiness", "install_operations", "router"]
+__all__ = ["Health", "Readiness", "install_health_and_metrics", "router"]
 
 router = APIRouter(tags=["operations"])
 
@@ -38,7 +39,7 @@ class Readiness(BaseModel):
 
 def _metrics(request: Request) -> Metrics:
     metrics = request.app.state.metrics
-    assert isinstance(metrics, Metrics), "install_operations(app, gateway) was not called"
+    assert isinstance(metrics, Metrics), "install_health_and_metrics(app, gateway) was not called"
     return metrics
 
 
@@ -115,7 +116,7 @@ async def metrics_head(request: Request) -> Response:
     return Response(media_type=CONTENT_TYPE, headers=headers)
 
 
-def install_operations(
+def install_health_and_metrics(
     app: FastAPI, gateway: MetricsSource | None, *, ws: WsStats | None = None
 ) -> Metrics:
     """Serve ``/healthz``, ``/readyz`` and ``/metrics`` and count HTTP requests; the
@@ -126,3 +127,4 @@ def install_operations(
     app.add_middleware(HttpMetricsMiddleware, metrics=metrics)
     app.include_router(router)
     return metrics
+

@@ -1,4 +1,4 @@
-"""Prometheus metrics (issue 5, "Operations"): what ``GET /metrics`` exposes, in the text
+"""Prometheus metrics, for those who run the cell: what ``GET /metrics`` exposes, in the text
 exposition format 0.0.4, written here (no client library).
 
 Per loop (label ``loop``): the scheduler's counters (``CountersSnapshot``), whether the line is
@@ -24,17 +24,22 @@ from dataclasses import dataclass, field, fields
 from typing import Protocol
 
 from fastapi import FastAPI
-from starlette.types import ASGIApp, Message, Receive, Scope, Send
+from starlette.types import ASGIApp, Receive, Scope, Send
 
 from gateway.api.access_log import log_access
+from gateway.api.asgi_status import call_noting_status
 from gateway.api.exposition import Exposition, Histogram
 from gateway.api.metrics_cell import CellMetrics, render_build_and_process
 from gateway.api.security import api_routes
-from gateway.bus.config import LoopConfig
-from gateway.bus.counters import CountersSnapshot
-from gateway.bus.events import BusEvent, EventBus, TransactionDone
-from gateway.bus.lifecycle import LinkState
-from gateway.service.gateway import Gateway
+from gateway.service.runtime.bus_types import (
+    BusEvent,
+    CountersSnapshot,
+    EventBus,
+    LinkState,
+    LoopConfig,
+    TransactionDone,
+)
+from gateway.service.runtime.runtime import Runtime
 
 __all__ = [
     "CONTENT_TYPE",
@@ -86,7 +91,7 @@ class LoopSource(Protocol):
 
 
 class MetricsSource(Protocol):
-    """What the metrics and ``/readyz`` read of the gateway (``gateway.service.Gateway``)."""
+    """What the metrics and ``/readyz`` read of the gateway (``gateway.service.Runtime``)."""
 
     @property
     def schedulers(self) -> Mapping[str, LoopSource]:
@@ -192,24 +197,14 @@ class HttpMetricsMiddleware:
             await self.app(scope, receive, send)
             return
         began = time.perf_counter()
-        status: int | None = None
 
-        async def tee(message: Message) -> None:
-            nonlocal status
-            if message["type"] == "http.response.start":
-                status = int(message["status"])
-            await send(message)
-
-        try:
-            await self.app(scope, receive, tee)
-        except Exception:
-            status = status or 500
-            raise
-        finally:
+        def count(status: int | None) -> None:
             if status is not None:  # None: the client went away before any answer
                 seconds = time.perf_counter() - began
                 self.http.observe(self.routes.label(scope), scope["method"], status, seconds)
                 log_access(scope, status)
+
+        await call_noting_status(self.app, scope, receive, send, count)
 
 
 #: CountersSnapshot field -> (metric name, help)
@@ -260,7 +255,7 @@ class Metrics:
         self.http = HttpMetrics()
         self._loops: dict[str, _LoopWatch] = {}
         #: the per-controller and per-axis series, for a real gateway (not a test's stand-in)
-        self.cell = CellMetrics(gateway) if isinstance(gateway, Gateway) else None
+        self.cell = CellMetrics(gateway) if isinstance(gateway, Runtime) else None
         self.attach()
 
     def attach(self) -> None:

@@ -23,11 +23,10 @@ from pathlib import Path
 
 from gateway import __version__
 from gateway.api.exposition import Exposition
-from gateway.bus.events import BusEvent, TransactionDone
-from gateway.bus.state_types import ErrorKind
 from gateway.service.events import EventKind, ServiceEvent
-from gateway.service.gateway import Gateway
-from gateway.service.operation_types import FINAL
+from gateway.service.operations.types import FINAL
+from gateway.service.runtime.bus_types import BusEvent, ErrorKind, TransactionDone
+from gateway.service.runtime.runtime import Runtime
 
 __all__ = ["CellMetrics", "render_build_and_process"]
 
@@ -44,7 +43,7 @@ _FINAL = {str(state) for state in FINAL}
 class CellMetrics:
     """Watches a gateway's events for the counts; renders the per-resource series."""
 
-    def __init__(self, gateway: Gateway) -> None:
+    def __init__(self, gateway: Runtime) -> None:
         self.gateway = gateway
         #: (controller id, kind, final state) -> operations
         self.operations: dict[tuple[str, str, str], int] = {}

@@ -29,7 +29,7 @@ from gateway.api.problems import (
     Problem,
     problem_type,
 )
-from gateway.service.operation_types import OperationState, OperationView
+from gateway.service.operations.types import OperationState, OperationView
 
 __all__ = ["MOTION_PROBLEM_RESPONSES", "motion_problem"]
 

@@ -25,6 +25,7 @@ from fastapi import FastAPI
 from fastapi.routing import APIRoute
 
 from gateway.api.idempotency import HEADER, MAX_KEY_LENGTH
+from gateway.api.problem_docs import install_problem_docs
 
 __all__ = ["OPERATION_IDS", "TAGS", "install_openapi_docs", "operation_id"]
 
@@ -174,7 +175,9 @@ def document_for_integrators(schema: dict[str, Any]) -> None:
 
 
 def install_openapi_docs(app: FastAPI) -> None:
-    """Make ``app.openapi()`` the integrators' document (``document_for_integrators``)."""
+    """Make ``app.openapi()`` the integrators' document: every error a ``Problem``
+    (``install_problem_docs``), then ``document_for_integrators``."""
+    install_problem_docs(app)
     original = app.openapi
 
     def openapi() -> dict[str, Any]:

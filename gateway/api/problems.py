@@ -42,7 +42,6 @@ from pydantic import BaseModel, ConfigDict
 from starlette.exceptions import HTTPException
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
-from gateway.bus.requests import DeadlineExpired, LoopDown, TransactionError
 from gateway.errors import (
     ConflictError,
     DeviceError,
@@ -51,6 +50,7 @@ from gateway.errors import (
     ProgramError,
     ProtocolError,
 )
+from gateway.service.runtime.bus_types import DeadlineExpired, LoopDown, TransactionError
 
 __all__ = [
     "PROBLEM_MEDIA_TYPE",
@@ -359,9 +359,11 @@ class _CatchAllMiddleware:
 
 
 def install_problem_handlers(app: FastAPI) -> None:
-    """Answer every error of ``app`` as a problem, and document them so in its OpenAPI.
+    """Answer every error of ``app`` as a problem (``problem_docs.install_problem_docs``, which
+    ``openapi_docs.install_openapi_docs`` calls, documents them so in its OpenAPI: it reads the
+    routes' roles from security, which stands on this module).
 
-    Call it before ``install_audit`` and ``install_operations`` so their middlewares sit
+    Call it before ``install_audit`` and ``install_health_and_metrics`` so their middlewares sit
     outside the catch-all and see its 500.
     """
     app.add_exception_handler(RequestValidationError, _on_validation)
@@ -380,7 +382,3 @@ def install_problem_handlers(app: FastAPI) -> None:
         app.add_exception_handler(cls, _on_gateway_error)
     app.add_exception_handler(Exception, _on_unexpected)
     app.add_middleware(_CatchAllMiddleware)
-    # Imported here: problem_docs reads the routes' roles (security imports this module).
-    from gateway.api.problem_docs import install_problem_docs
-
-    install_problem_docs(app)

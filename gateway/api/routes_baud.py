@@ -4,25 +4,17 @@ to another rate with ``ES`` (``gateway.service.baud``)."""
 from __future__ import annotations
 
 from fastapi import APIRouter, Request
-from pydantic import BaseModel, ConfigDict, Field
 
 from gateway.api.audit import audit_note
+from gateway.api.bodies import BaudRequest
 from gateway.api.ctl_deps import Admin
 from gateway.api.problems import PROBLEM_RESPONSES
 from gateway.api.routes_loops import Loop
 from gateway.service.baud import BaudChange, BaudChanger
 
-__all__ = ["BaudRequest", "router"]
+__all__ = ["router"]
 
 router = APIRouter(tags=["loops"], responses=PROBLEM_RESPONSES)
-
-
-class BaudRequest(BaseModel):
-    """The loop's new rate."""
-
-    model_config = ConfigDict(extra="forbid", strict=True)
-
-    baud: int = Field(description="9600, 1200 or 300 bps (§10 ES)", examples=[1200])
 
 
 @router.post("/loops/{loop}/baud", response_model=BaudChange)

@@ -11,29 +11,18 @@ controller's and axes' views).
 from __future__ import annotations
 
 from fastapi import APIRouter, Request
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, Field
 
 from gateway.api.audit import audit_note
+from gateway.api.bodies import ControlRequest
 from gateway.api.ctl_deps import Admin, Id, Service
 from gateway.api.problems import PROBLEM_RESPONSES
 from gateway.api.routes_loops import Loop
-from gateway.service.control import ControlSourceView, ControlState, ControlView
+from gateway.service.control import ControlSourceView, ControlView
 
-__all__ = ["ControlRequest", "LoopControlView", "router"]
+__all__ = ["LoopControlView", "router"]
 
 router = APIRouter(tags=["control"], responses=PROBLEM_RESPONSES)
-
-
-class ControlRequest(BaseModel):
-    """Put a controller or a loop in local or remote control."""
-
-    model_config = ConfigDict(extra="forbid", strict=True)
-
-    state: ControlState = Field(
-        strict=False,  # the enum from its JSON string; anything else is still refused
-        description="local: motion and settings from the network are refused (409), stops "
-        "pass; remote: lifts this setting (a key switch or another setting may still hold)",
-    )
 
 
 class ControllerControlView(ControlView):

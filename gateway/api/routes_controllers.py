@@ -1,4 +1,4 @@
-"""Routes of the controllers (issue 5): views, any command, position table, I/O, sensor
+"""Routes of the controllers: views, any command, position table, I/O, sensor
 logic, mode, EEPROM; the user-program routes are ``routes_programs`` (included here).
 
 Paths are relative to ``/api/v1``. ``{id}`` is a controller id (``loop.body``) or its name.
@@ -14,9 +14,17 @@ from typing import TYPE_CHECKING, Annotated, Literal
 from fastapi import APIRouter, Body, Path, Query, Request
 
 from gateway.api.audit import audit_note
-from gateway.api.axis_requests import StopRequest
+from gateway.api.bodies import (
+    EepromRequest,
+    ModeWrite,
+    OutputBitWrite,
+    OutputPulse,
+    OutputsWrite,
+    PositionWrite,
+    SensorLogicWrite,
+    StopRequest,
+)
 from gateway.api.ctl_deps import (
-    Admin,
     Id,
     Operator,
     Service,
@@ -26,25 +34,19 @@ from gateway.api.ctl_deps import (
     note_sent,
 )
 from gateway.api.problems import PROBLEM_RESPONSES
+from gateway.api.route_calls import AdminWrite, OperatorWrite
 from gateway.api.routes_programs import router as programs_router
 from gateway.protocol.models import Command
 from gateway.protocol.registry import Context, command_union
 from gateway.service.commands import ROLE_RULE, required_role
-from gateway.service.ctl_models import (
+from gateway.service.controllers.replies import CommandResponse
+from gateway.service.controllers.views import (
     BitView,
-    EepromRequest,
     IoView,
     ModeView,
-    ModeWrite,
-    OutputBitWrite,
-    OutputPulse,
-    OutputsWrite,
     PositionEntry,
-    PositionWrite,
     SensorLogicView,
-    SensorLogicWrite,
 )
-from gateway.service.ctl_replies import CommandResponse
 from gateway.service.stops import ControllerStop
 from gateway.service.views import ControllerView
 
@@ -149,12 +151,14 @@ async def get_position(id: Id, n: Number, service: Service, _: Operator) -> Posi
 
 @router.put("/controllers/{id}/positions/{n}", response_model=CommandResponse)
 async def put_position(
-    id: Id, n: Number, body: PositionWrite, request: Request, service: Service, who: Operator
+    id: Id, n: Number, body: PositionWrite, write: OperatorWrite
 ) -> CommandResponse:
     """Set entry n: ``A{pn}{pp}``, or ``A{pn}`` (the current position) with ``current``."""
-    ref = service.controller(id)
-    response = await service.resources.set_position(ref, n, body, holder=who.name)
-    return note_sent(request, response)
+    ref = write.controller(id)
+    response = await write.service.resources.set_position(
+        ref, n, body.position, current=body.current, motor=body.motor, holder=write.holder
+    )
+    return write.noted(response)
 
 
 # ---------------------------------------------------------------------- I/O
@@ -179,12 +183,12 @@ async def get_io_bit(
 
 
 @router.put("/controllers/{id}/io/outputs", response_model=CommandResponse)
-async def put_outputs(
-    id: Id, body: OutputsWrite, request: Request, service: Service, who: Operator
-) -> CommandResponse:
+async def put_outputs(id: Id, body: OutputsWrite, write: OperatorWrite) -> CommandResponse:
     """All general outputs (``D{du}{dl}``), with CLR1/CLR2 (``DA``, modes 0 and 1)."""
-    ref = service.controller(id)
-    return note_sent(request, await service.resources.set_outputs(ref, body, holder=who.name))
+    ref = write.controller(id)
+    clr = None if body.clr1 is None or body.clr2 is None else (body.clr1, body.clr2)
+    response = await write.service.resources.set_outputs(ref, body.value, clr, holder=write.holder)
+    return write.noted(response)
 
 
 @router.put("/controllers/{id}/io/outputs/{bit}", response_model=CommandResponse)
@@ -192,14 +196,12 @@ async def put_output_bit(
     id: Id,
     bit: Annotated[int, Path(ge=0, le=9, description="0-7 general; 8 CLR1, 9 CLR2")],
     body: OutputBitWrite,
-    request: Request,
-    service: Service,
-    who: Operator,
+    write: OperatorWrite,
 ) -> CommandResponse:
     """One output bit ON or OFF (``D{bit}{value}B``)."""
-    ref = service.controller(id)
-    response = await service.resources.set_output_bit(ref, bit, body.on, holder=who.name)
-    return note_sent(request, response)
+    ref = write.controller(id)
+    response = await write.service.resources.set_output_bit(ref, bit, body.on, holder=write.holder)
+    return write.noted(response)
 
 
 @router.post("/controllers/{id}/io/outputs/{bit}/pulse", response_model=CommandResponse)
@@ -207,14 +209,12 @@ async def pulse_output(
     id: Id,
     bit: Annotated[int, Path(ge=0, le=7)],
     body: OutputPulse,
-    request: Request,
-    service: Service,
-    who: Operator,
+    write: OperatorWrite,
 ) -> CommandResponse:
     """Output bit ON for ``time`` x 100 ms, then OFF (``P{bt}{time}``)."""
-    ref = service.controller(id)
-    response = await service.resources.pulse_output(ref, bit, body.time, holder=who.name)
-    return note_sent(request, response)
+    ref = write.controller(id)
+    response = await write.service.resources.pulse_output(ref, bit, body.time, holder=write.holder)
+    return write.noted(response)
 
 
 # ---------------------------------------------------------------------- sensor logic, mode
@@ -228,12 +228,15 @@ async def get_sensor_logic(id: Id, motor: Motor, service: Service, _: Operator) 
 
 @router.put("/controllers/{id}/sensor-logic/{motor}", response_model=CommandResponse)
 async def put_sensor_logic(
-    id: Id, motor: Motor, body: SensorLogicWrite, request: Request, service: Service, who: Operator
+    id: Id, motor: Motor, body: SensorLogicWrite, write: OperatorWrite
 ) -> CommandResponse:
     """Set the sensor input logic of a motor (``EA{du}{dl}``; the EMS bit is common)."""
-    ref = service.controller(id)
-    response = await service.resources.set_sensor_logic(ref, motor, body, holder=who.name)
-    return note_sent(request, response)
+    ref = write.controller(id)
+    logic = body.logic()
+    response = await write.service.resources.set_sensor_logic(
+        ref, motor, logic, holder=write.holder
+    )
+    return write.noted(response)
 
 
 @router.get("/controllers/{id}/mode", response_model=ModeView)
@@ -243,45 +246,39 @@ async def get_mode(id: Id, service: Service, _: Operator) -> ModeView:
 
 
 @router.put("/controllers/{id}/mode", response_model=CommandResponse)
-async def put_mode(
-    id: Id, body: ModeWrite, request: Request, service: Service, who: Admin
-) -> CommandResponse:
+async def put_mode(id: Id, body: ModeWrite, write: AdminWrite) -> CommandResponse:
     """Set the operating mode (``E{mode}``; admin; not while moving)."""
-    ref = service.controller(id)
-    return note_sent(request, await service.resources.set_mode(ref, body.mode, holder=who.name))
+    ref = write.controller(id)
+    return write.noted(await write.service.resources.set_mode(ref, body.mode, holder=write.holder))
 
 
 # ---------------------------------------------------------------------- EEPROM
 
 
 @router.post("/controllers/{id}/eeprom/save", response_model=CommandResponse)
-async def eeprom_save(
-    id: Id, body: EepromRequest, request: Request, service: Service, who: Admin
-) -> CommandResponse:
+async def eeprom_save(id: Id, body: EepromRequest, write: AdminWrite) -> CommandResponse:
     """Write RAM to the EEPROM: settings ``DW``, positions ``AW``, program ``IW``. The loop
     waits for the controller's ``$B#*`` before anything else is sent."""
-    ref = service.controller(id)
-    response = await service.resources.eeprom(ref, "save", body.area, holder=who.name)
-    return note_sent(request, response)
+    ref = write.controller(id)
+    response = await write.service.resources.eeprom(ref, "save", body.area, holder=write.holder)
+    return write.noted(response)
 
 
 @router.post("/controllers/{id}/eeprom/load", response_model=CommandResponse)
-async def eeprom_load(
-    id: Id, body: EepromRequest, request: Request, service: Service, who: Admin
-) -> CommandResponse:
+async def eeprom_load(id: Id, body: EepromRequest, write: AdminWrite) -> CommandResponse:
     """Load the EEPROM into RAM: settings ``DL``, positions ``AL``, program ``IL``."""
-    ref = service.controller(id)
-    response = await service.resources.eeprom(ref, "load", body.area, holder=who.name)
-    return note_sent(request, response)
+    ref = write.controller(id)
+    response = await write.service.resources.eeprom(ref, "load", body.area, holder=write.holder)
+    return write.noted(response)
 
 
 @router.post("/controllers/{id}/eeprom/erase", response_model=CommandResponse)
-async def eeprom_erase(id: Id, request: Request, service: Service, who: Admin) -> CommandResponse:
+async def eeprom_erase(id: Id, write: AdminWrite) -> CommandResponse:
     """Erase everything written to the EEPROM (``EE///``: 10-20 s in which the controller
     answers nothing; the loop waits for its ``$B#*``)."""
-    ref = service.controller(id)
-    response = await service.resources.eeprom(ref, "erase", None, holder=who.name)
-    return note_sent(request, response)
+    ref = write.controller(id)
+    response = await write.service.resources.eeprom(ref, "erase", None, holder=write.holder)
+    return write.noted(response)
 
 
 router.include_router(programs_router)

@@ -12,24 +12,15 @@ from collections.abc import Callable
 from typing import Annotated
 
 from fastapi import APIRouter, Body, Depends, Path, Request
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, Field
 
 from gateway.api.audit import audit_note
+from gateway.api.bodies import LeaseRequest
 from gateway.api.security import Principal, require
-from gateway.service.leases import MAX_TTL, Lease, Leases
+from gateway.service.leases import Lease, Leases
 from gateway.service.roles import Role
 
-__all__ = ["LeaseRequest", "LeaseView", "lease_routes"]
-
-
-class LeaseRequest(BaseModel):
-    """How long to hold the lease."""
-
-    model_config = ConfigDict(extra="forbid", strict=True)
-
-    ttl: float = Field(
-        60.0, gt=0, le=MAX_TTL, allow_inf_nan=False, description="seconds; renew before it ends"
-    )
+__all__ = ["LeaseView", "lease_routes"]
 
 
 class LeaseView(BaseModel):

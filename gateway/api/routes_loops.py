@@ -1,4 +1,4 @@
-"""Routes of the loops (issue 5): views, raw command text, the line trace.
+"""Routes of the loops: views, raw command text, the line trace.
 
 ``POST /loops/{loop}/raw`` (admin) takes command text for one controller of the loop and
 parses it through the catalog first: text that fits no form is refused 422 with the reason
@@ -12,13 +12,12 @@ from typing import Annotated
 from fastapi import APIRouter, Body, Path, Query, Request
 
 from gateway.api.audit import audit_note
-from gateway.api.axis_requests import StopRequest
+from gateway.api.bodies import RawRequest, StopRequest, TraceSettings
 from gateway.api.ctl_deps import Admin, Operator, Service, Stops, Viewer, note_sent
 from gateway.api.problems import PROBLEM_RESPONSES
 from gateway.errors import NotFoundError
-from gateway.service.controllers import TraceSettings, TraceView
-from gateway.service.ctl_models import RawRequest
-from gateway.service.ctl_replies import CommandResponse
+from gateway.service.controllers.replies import CommandResponse
+from gateway.service.controllers.service import TraceView
 from gateway.service.stops import LoopStop
 from gateway.service.views import LoopView
 
@@ -66,7 +65,10 @@ async def post_raw(
     through the catalog first; answered like ``/controllers/{id}/commands``, with the same
     soft-limit checks of motion commands (field ``text``)."""
     try:
-        return note_sent(request, await service.raw(loop, body, holder=who.name))
+        return note_sent(
+            request,
+            await service.raw(loop, body.controller, body.text, motor=body.motor, holder=who.name),
+        )
     except NotFoundError as exc:
         if exc.kind == "controller":
             exc.field = "body.controller"
@@ -94,4 +96,10 @@ async def get_trace(
 @router.put("/loops/{loop}/trace", response_model=TraceView)
 async def put_trace(loop: Loop, body: TraceSettings, service: Service, _: Admin) -> TraceView:
     """Switch the line trace of the loop (whole loop, or some controllers)."""
-    return service.set_trace(loop, body)
+    return service.set_trace(
+        loop,
+        enabled=body.enabled,
+        controllers=body.controllers,
+        hex_mode=body.hex,
+        clear=body.clear,
+    )

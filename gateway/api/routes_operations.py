@@ -14,8 +14,8 @@ from fastapi import APIRouter, Depends, Path, Query, Request
 from gateway.api.problems import PROBLEM_RESPONSES
 from gateway.api.security import Principal, require
 from gateway.errors import NotFoundError
-from gateway.service.operation_types import OperationState, OperationView
-from gateway.service.operations import Operations
+from gateway.service.operations.registry import Operations
+from gateway.service.operations.types import OperationState, OperationView
 from gateway.service.roles import Role
 
 __all__ = ["router"]

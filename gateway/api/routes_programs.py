@@ -1,4 +1,4 @@
-"""Routes of a controller's user program (issue 5): upload, read back, run, pause, resume,
+"""Routes of a controller's user program: upload, read back, run, pause, resume,
 stop, status, buffers and counters, autostart (§10 G ... IW).
 
 Upload and autostart need the admin role; running, pausing, resuming, stopping and writing
@@ -10,23 +10,26 @@ from __future__ import annotations
 
 from typing import Annotated, Literal
 
-from fastapi import APIRouter, Path, Request
+from fastapi import APIRouter, Path
 
-from gateway.api.ctl_deps import Admin, Id, Operator, Service, note_sent
-from gateway.api.problems import PROBLEM_RESPONSES
-from gateway.service.ctl_models import (
+from gateway.api.bodies import (
     Autostart,
     BufferWrite,
     CounterWrite,
-    ProgramCheck,
-    ProgramData,
     ProgramRun,
-    ProgramStatus,
     ProgramStop,
-    ProgramText,
     ProgramWrite,
 )
-from gateway.service.ctl_replies import CommandResponse
+from gateway.api.ctl_deps import Id, Operator, Service
+from gateway.api.problems import PROBLEM_RESPONSES
+from gateway.api.route_calls import AdminWrite, OperatorWrite
+from gateway.service.controllers.replies import CommandResponse
+from gateway.service.controllers.views import (
+    ProgramCheck,
+    ProgramData,
+    ProgramStatus,
+    ProgramText,
+)
 
 __all__ = ["router"]
 
@@ -37,14 +40,12 @@ Counter = Annotated[int, Path(ge=1, le=2, description="counter 1 or 2")]
 
 
 @router.put("/controllers/{id}/program", response_model=CommandResponse)
-async def put_program(
-    id: Id, body: ProgramWrite, request: Request, service: Service, who: Admin
-) -> CommandResponse:
+async def put_program(id: Id, body: ProgramWrite, write: AdminWrite) -> CommandResponse:
     """Validate the program text (chapters 11-12: a broken rule is 422 naming the step, the
     field and the rule; nothing is sent) and upload it (``I``, the text, CR)."""
-    ref = service.controller(id)
-    response = await service.programs.upload(ref, body.text, holder=who.name)
-    return note_sent(request, response)
+    ref = write.controller(id)
+    response = await write.service.programs.upload(ref, body.text, holder=write.holder)
+    return write.noted(response)
 
 
 @router.get("/controllers/{id}/program", response_model=ProgramText)
@@ -55,41 +56,37 @@ async def get_program(id: Id, service: Service, _: Operator) -> ProgramText:
 
 @router.post("/controllers/{id}/program/run", response_model=CommandResponse)
 async def run_program(
-    id: Id, request: Request, service: Service, who: Operator, body: ProgramRun | None = None
+    id: Id, write: OperatorWrite, body: ProgramRun | None = None
 ) -> CommandResponse:
     """Run the program from its start (``G``) or from a label (``G{lb}``)."""
-    ref = service.controller(id)
+    ref = write.controller(id)
     label = body.label if body is not None else None
-    return note_sent(request, await service.programs.run(ref, label, holder=who.name))
+    return write.noted(await write.service.programs.run(ref, label, holder=write.holder))
 
 
 @router.post("/controllers/{id}/program/pause", response_model=CommandResponse)
-async def pause_program(
-    id: Id, request: Request, service: Service, who: Operator
-) -> CommandResponse:
+async def pause_program(id: Id, write: OperatorWrite) -> CommandResponse:
     """Pause the running program (``GS``)."""
-    ref = service.controller(id)
-    return note_sent(request, await service.programs.pause(ref, holder=who.name))
+    ref = write.controller(id)
+    return write.noted(await write.service.programs.pause(ref, holder=write.holder))
 
 
 @router.post("/controllers/{id}/program/resume", response_model=CommandResponse)
-async def resume_program(
-    id: Id, request: Request, service: Service, who: Operator
-) -> CommandResponse:
+async def resume_program(id: Id, write: OperatorWrite) -> CommandResponse:
     """Resume a paused program (``GC``)."""
-    ref = service.controller(id)
-    return note_sent(request, await service.programs.resume(ref, holder=who.name))
+    ref = write.controller(id)
+    return write.noted(await write.service.programs.resume(ref, holder=write.holder))
 
 
 @router.post("/controllers/{id}/program/stop", response_model=CommandResponse)
 async def stop_program(
-    id: Id, request: Request, service: Service, who: Operator, body: ProgramStop | None = None
+    id: Id, write: OperatorWrite, body: ProgramStop | None = None
 ) -> CommandResponse:
     """End the program: ``GE`` (mode end), or ``GES`` (mode immediate: the motor stops too,
     sent at stop priority). Never refused by a lease."""
-    ref = service.controller(id)
+    ref = write.controller(id)
     mode = body.mode if body is not None else "end"
-    return note_sent(request, await service.programs.stop(ref, mode, holder=who.name))
+    return write.noted(await write.service.programs.stop(ref, mode, holder=write.holder))
 
 
 @router.get("/controllers/{id}/program/status", response_model=ProgramStatus)
@@ -106,38 +103,38 @@ async def program_data(id: Id, service: Service, _: Operator) -> ProgramData:
 
 @router.put("/controllers/{id}/program/buffers/{buffer}", response_model=CommandResponse)
 async def put_buffer(
-    id: Id, buffer: Buffer, body: BufferWrite, request: Request, service: Service, who: Operator
+    id: Id, buffer: Buffer, body: BufferWrite, write: OperatorWrite
 ) -> CommandResponse:
     """Write one data buffer byte (``GW{bf}{du}{dl}``)."""
-    ref = service.controller(id)
-    response = await service.programs.set_buffer(ref, buffer, body.value, holder=who.name)
-    return note_sent(request, response)
+    ref = write.controller(id)
+    response = await write.service.programs.set_buffer(ref, buffer, body.value, holder=write.holder)
+    return write.noted(response)
 
 
 @router.put("/controllers/{id}/program/counters/{counter}", response_model=CommandResponse)
 async def put_counter(
-    id: Id, counter: Counter, body: CounterWrite, request: Request, service: Service, who: Operator
+    id: Id, counter: Counter, body: CounterWrite, write: OperatorWrite
 ) -> CommandResponse:
     """Write one counter (``GW{ct}{dt}``)."""
-    ref = service.controller(id)
-    response = await service.programs.set_counter(ref, counter, body.value, holder=who.name)
-    return note_sent(request, response)
+    ref = write.controller(id)
+    response = await write.service.programs.set_counter(
+        ref, counter, body.value, holder=write.holder
+    )
+    return write.noted(response)
 
 
 @router.get("/controllers/{id}/program/autostart", response_model=Autostart)
 async def get_autostart(id: Id, service: Service, _: Operator) -> Autostart:
     """Whether the program starts at power-on (``GA``)."""
-    return await service.programs.autostart(service.controller(id))
+    return Autostart(enabled=await service.programs.autostart(service.controller(id)))
 
 
 @router.put("/controllers/{id}/program/autostart", response_model=CommandResponse)
-async def put_autostart(
-    id: Id, body: Autostart, request: Request, service: Service, who: Admin
-) -> CommandResponse:
+async def put_autostart(id: Id, body: Autostart, write: AdminWrite) -> CommandResponse:
     """Switch autostart (``GAS``/``GAR``, written to the EEPROM at once; admin)."""
-    ref = service.controller(id)
-    response = await service.programs.set_autostart(ref, body.enabled, holder=who.name)
-    return note_sent(request, response)
+    ref = write.controller(id)
+    response = await write.service.programs.set_autostart(ref, body.enabled, holder=write.holder)
+    return write.noted(response)
 
 
 @router.post("/programs/check", response_model=ProgramCheck)

@@ -1,4 +1,4 @@
-"""Bearer tokens and roles (issue 5, "Security"): who is calling, and may they.
+"""Bearer tokens and roles : who is calling, and may they.
 
 Tokens are stored only as SHA-256 hex digests (``hash_token``; config ``security.tokens``),
 each with a name (what the audit log records) and a role. Roles are ordered: viewer (read,
@@ -51,7 +51,9 @@ __all__ = [
     "TokenBook",
     "TokenEntry",
     "api_routes",
+    "auth_of_scope",
     "authenticate_websocket",
+    "bearer_of_headers",
     "hash_token",
     "install_security",
     "is_loopback",
@@ -186,7 +188,13 @@ def install_security(app: FastAPI, auth: AuthConfig) -> None:
 
 
 def _auth_of(connection: HTTPConnection) -> AuthConfig:
-    auth = getattr(connection.app.state, "auth", None)
+    return auth_of_scope(connection.scope)
+
+
+def auth_of_scope(scope: Scope) -> AuthConfig:
+    """The mode of the app serving ``scope`` (``install_security``)."""
+    app = scope.get("app")
+    auth = getattr(getattr(app, "state", None), "auth", None)
     # Fail closed: an app nobody configured knows no token.
     return auth if isinstance(auth, AuthConfig) else AuthConfig()
 
@@ -251,9 +259,19 @@ def require(role: Role) -> RoleRequirement:
 
 
 def _bearer_of(connection: HTTPConnection) -> str | None:
-    scheme, _, credentials = connection.headers.get("authorization", "").partition(" ")
-    if scheme.lower() == "bearer" and credentials.strip():
-        return credentials.strip()
+    return bearer_of_headers(connection.scope)
+
+
+def bearer_of_headers(scope: Scope) -> str | None:
+    """The bearer token of the first ``Authorization`` header of ``scope``, by the rule of
+    FastAPI's ``HTTPBearer`` (the scheme up to the first space, any case; the rest stripped,
+    not empty); None without one. Read straight from the raw headers: the cached read asks
+    it of every request (``gateway.api.read_path``)."""
+    for name, value in scope.get("headers", ()):
+        if name.lower() == b"authorization":
+            scheme, _, credentials = value.decode("latin-1").partition(" ")
+            token = credentials.strip()
+            return token if scheme.lower() == "bearer" and token else None
     return None
 
 

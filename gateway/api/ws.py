@@ -1,4 +1,4 @@
-"""The WebSocket ``/api/v1/ws``: the feed (``gateway.service.feed``) to dashboards (issue 5).
+"""The WebSocket ``/api/v1/ws``: the feed (``gateway.service.feed``) to dashboards.
 
 One connection, one feed client. Decisions (see ``ws_messages.CLOSE_CODES``):
 
@@ -35,7 +35,7 @@ from fastapi import APIRouter, FastAPI, WebSocket
 from pydantic import ValidationError
 
 from gateway.api.security import AuthConfig, authenticate_websocket
-from gateway.api.ws_direct import direct_writer
+from gateway.api.ws_direct import DirectWriter, direct_writer
 from gateway.api.ws_messages import (
     ClientMessage,
     PingMessage,
@@ -126,7 +126,7 @@ async def serve_client(
         await ws.close(4403, f"the {principal.role} role may not subscribe")
         return
     client = feed.open(backlog)
-    client.direct = direct_writer(ws._send)  # None on a server it does not know
+    client.direct = _direct_writer(ws)
     if stats:
         stats.connected()
     tasks = [
@@ -151,6 +151,16 @@ async def serve_client(
         await _close(ws, 4008, "backlog exceeded")
     elif not gone:
         await _close(ws, 1001, "the gateway is shutting down")
+
+
+def _direct_writer(ws: WebSocket) -> DirectWriter | None:
+    """The connection's direct writer; None on a server it does not know, or when finding
+    it fails in any way (Starlette keeps the ASGI ``send`` in a private attribute)."""
+    try:
+        return direct_writer(getattr(ws, "_send", None))
+    except Exception:
+        log.warning("no direct WebSocket writer: messages go through ASGI send", exc_info=True)
+        return None
 
 
 async def _close(ws: WebSocket, code: int, reason: str) -> None:

@@ -15,17 +15,27 @@ from then on its messages queue, so the backlog limit still drops it) and no per
 extension is in use (deflate is off: ``uvicorn_ws_options``). Otherwise it answers False
 and the message takes the ordinary path: the client's queue and its sender task. A server
 other than uvicorn's sans-I/O protocol gets no writer, and everything takes that path.
+
+What it reads of uvicorn is not uvicorn's public API, so it fails safe: the protocol must have
+every attribute the writer reads, of the type it expects (``_usable``), or there is no writer;
+and a writer that meets anything unexpected while it writes (an attribute gone, a transport
+that raises) answers False for that message and every later one, logs it once, and the
+connection goes on through its ASGI ``send`` (tests/api/test_ws_direct.py).
 """
 
 from __future__ import annotations
 
+import asyncio
+import logging
 import struct
 from collections.abc import Callable
 from typing import Any
 
-from websockets.protocol import State
+from websockets.protocol import Protocol, State
 
 __all__ = ["DirectWriter", "direct_writer", "text_frame"]
+
+log = logging.getLogger("gateway.api")
 
 #: Write one message's JSON text now; False: not now (queue it).
 DirectWriter = Callable[[str], bool]
@@ -72,24 +82,56 @@ def _protocol_behind(send: Any) -> Any | None:
     return None
 
 
+def _usable(protocol: Any) -> bool:
+    """True when ``protocol`` has what the writer reads, as the writer reads it."""
+    try:
+        return (
+            isinstance(protocol.conn, Protocol)
+            and not protocol.conn.extensions  # deflate would need a frame per client
+            # uvloop's transports are not asyncio.Transport subclasses: what it does counts.
+            and all(
+                callable(getattr(protocol.transport, name, None))
+                for name in ("write", "is_closing", "get_write_buffer_size")
+            )
+            and isinstance(protocol.writable, asyncio.Event)
+            and isinstance(protocol.close_sent, bool)
+            and isinstance(protocol.disconnected, bool)
+        )
+    except AttributeError:
+        return False
+
+
 def direct_writer(send: Any) -> DirectWriter | None:
     """A direct writer for the connection whose ASGI ``send`` this is (see the module)."""
     protocol = _protocol_behind(send)
-    if protocol is None or getattr(protocol.conn, "extensions", None):
+    if protocol is None or not _usable(protocol):
         return None
     conn, transport, writable = protocol.conn, protocol.transport, protocol.writable
+    broken = False
 
     def write(text: str) -> bool:
-        if (
-            protocol.close_sent
-            or protocol.disconnected
-            or not writable.is_set()
-            or conn.state is not State.OPEN
-            or transport.is_closing()
-            or transport.get_write_buffer_size()
-        ):
+        nonlocal broken
+        if broken:
             return False
-        transport.write(text_frame(text))
+        try:
+            if (
+                protocol.close_sent
+                or protocol.disconnected
+                or not writable.is_set()
+                or conn.state is not State.OPEN
+                or transport.is_closing()
+                or transport.get_write_buffer_size()
+            ):
+                return False
+            transport.write(text_frame(text))
+        except Exception:
+            # Nothing of this frame went out (a transport writes all or raises): the message
+            # takes the ASGI path, and so does every later one.
+            broken = True
+            log.warning(
+                "WebSocket direct write failed; this client goes through ASGI send", exc_info=True
+            )
+            return False
         return True
 
     return write

@@ -1,4 +1,4 @@
-"""The loop scheduler: one per serial loop (issue 4).
+"""The loop scheduler: one per serial loop.
 
 ``LoopScheduler`` owns a loop's port: a priority queue of transactions, one frame in flight,
 reply time-outs from the baud rate, safe retries and read-backs, motor selection, framing,

@@ -13,18 +13,17 @@ framing found. Query replies do not depend on EL or ER (§10 EL: "query replies 
 from __future__ import annotations
 
 from gateway.bus.core import LoopCore
-from gateway.bus.framing_track import ProbeReading, probe_complete, read_probe
+from gateway.protocol import commands
+from gateway.protocol.command_replies import ProbeReading, probe_complete, read_probe
 from gateway.protocol.framing import Framing, encode_command
-from gateway.protocol.registry import parse
+from gateway.protocol.models import Command
 
 __all__ = ["detect_framing", "ensure_framing"]
 
-_PROBES = ("SUM", "EE", "EL", "ER")
 
-
-async def _probe(core: LoopCore, body: str, text: str, *, checksum: bool) -> ProbeReading:
+async def _probe(core: LoopCore, body: str, command: Command, *, checksum: bool) -> ProbeReading:
     series = core.config.series_of(body)
-    frame = encode_command(body, text, series=series, framing=Framing(checksum=checksum))
+    frame = encode_command(body, command.wire(), series=series, framing=Framing(checksum=checksum))
     raw = await core.link.probe(
         body,
         frame,
@@ -34,16 +33,15 @@ async def _probe(core: LoopCore, body: str, text: str, *, checksum: bool) -> Pro
     core.counters.exchanges += 1
     reading = read_probe(raw, body, series, frame)
     if reading.value is not None:
-        command = parse(text)
         core.publish_reply(body, command, reading.value, None)
     return reading
 
 
-async def _read(core: LoopCore, body: str, text: str, *, checksum: bool) -> ProbeReading:
+async def _read(core: LoopCore, body: str, command: Command, *, checksum: bool) -> ProbeReading:
     """One probe, with the '?' retries of §9-2."""
     reading = ProbeReading(None)
     for _ in range(1 + core.config.nak_retries):
-        reading = await _probe(core, body, text, checksum=checksum)
+        reading = await _probe(core, body, command, checksum=checksum)
         if reading.value is not None:
             return reading
         core.counters.retries += 1
@@ -52,29 +50,28 @@ async def _read(core: LoopCore, body: str, text: str, *, checksum: bool) -> Prob
 
 async def detect_framing(core: LoopCore, body: str) -> Framing | None:
     """Read EE, EL, ER and SUM of ``body``; the framing, or None when it did not answer."""
-    sum_reading = await _probe(core, body, "SUM", checksum=False)
+    sum_query = commands.checksum()
+    sum_reading = await _probe(core, body, sum_query, checksum=False)
     if sum_reading.not_accepted:
         # '?' to a frame without a checksum: SUM1 (or noise). Ask again with a checksum.
-        sum_reading = await _read(core, body, "SUM", checksum=True)
+        sum_reading = await _read(core, body, sum_query, checksum=True)
         if sum_reading.value is None:
-            sum_reading = await _read(core, body, "SUM", checksum=False)
+            sum_reading = await _read(core, body, sum_query, checksum=False)
     elif sum_reading.value is None:
-        sum_reading = await _read(core, body, "SUM", checksum=False)
+        sum_reading = await _read(core, body, sum_query, checksum=False)
     if sum_reading.value is None:
         return None
     summed = sum_reading.value == 1
-    values = {"SUM": sum_reading.value}
-    for text in _PROBES[1:]:
-        reading = await _read(core, body, text, checksum=summed)
+    on: list[bool] = []
+    for query in (commands.echo_back(), commands.cr_after_ack(), commands.error_mark()):
+        reading = await _read(core, body, query, checksum=summed)
         if reading.value is None:
             return None
-        values[text] = reading.value
-    echo = values["EE"] == 1
+        on.append(reading.value == 1)
+    echo, cr_after_ack, error_mark = on
     if echo and summed:
         return None  # the device refuses that pair (§10 EE, SUM): the readings are wrong
-    return Framing(
-        echo=echo, cr_after_ack=values["EL"] == 1, error_mark=values["ER"] == 1, checksum=summed
-    )
+    return Framing(echo=echo, cr_after_ack=cr_after_ack, error_mark=error_mark, checksum=summed)
 
 
 async def ensure_framing(core: LoopCore, body: str) -> None:
@@ -95,7 +92,7 @@ async def ensure_framing(core: LoopCore, body: str) -> None:
         return
     core.set_framing(body, found, detected=True)
     if core.config.sum_at_connect and not found.checksum:
-        if found.echo:
-            await core.send(body, parse("EE0"))  # SUM1 is refused while EE1 is on (§10 SUM)
+        if found.echo:  # SUM1 is refused while EE1 is on (§10 SUM)
+            await core.send(body, commands.set_echo_back(False))
         if not core.framing.get(body).echo:
-            await core.send(body, parse("SUM1"))
+            await core.send(body, commands.set_checksum(True))

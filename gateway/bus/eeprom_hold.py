@@ -18,6 +18,7 @@ from typing import Any
 from gateway.bus.core import LoopCore
 from gateway.bus.link import LinkLost
 from gateway.bus.requests import Outcome
+from gateway.protocol.commands import ERASE_EEPROM
 from gateway.protocol.models import Command
 
 __all__ = ["hold_for_write"]
@@ -30,7 +31,7 @@ async def hold_for_write(
 
     ``seen["eeprom_done"]`` records whether it came. Queued stops are served meanwhile.
     """
-    erase = command.key == "EE///"
+    erase = command.form is ERASE_EEPROM
     hold = core.config.erase_hold if erase else core.config.eeprom_write_hold
     loop = asyncio.get_running_loop()
     deadline = loop.time() + core.timing.real(hold)

@@ -5,19 +5,16 @@ The four switches change the reply bytes (echo, CR after '>', '>@', checksums) a
 the command frames too. ``DW`` stores them in EEPROM (§10 DW), so a controller may come up with
 any of them on; ``DL`` loads them. The tracker keeps what the scheduler believes per controller
 and whether it is confirmed; hints from odd replies mark a controller *suspect*, and the
-scheduler then reads EE, EL, ER and SUM back with ``read_probe``, which understands a query
-reply in every framing: ``>$B#d`` CR, with a checksum (SUM1), or after the echo (EE1).
+scheduler then reads EE, EL, ER and SUM back with ``read_probe`` (protocol/command_replies.py),
+which understands a query reply in every framing: ``>$B#d`` CR, with a checksum (SUM1), or
+after the echo (EE1).
 """
 
 from __future__ import annotations
 
-import re
-from dataclasses import dataclass
-
-from gateway.errors import ReplyFormatError
-from gateway.protocol.framing import Framing, Series, checksum
+from gateway.protocol.command_replies import fits_with_checksum, fits_without_checksum
+from gateway.protocol.framing import Framing
 from gateway.protocol.models import Command
-from gateway.protocol.replies import decode_reply
 from gateway.protocol.reply_parser import (
     ChecksumMismatch,
     CommandRejected,
@@ -28,14 +25,9 @@ from gateway.protocol.reply_parser import (
 
 __all__ = [
     "FramingTracker",
-    "ProbeReading",
     "hint_from_reply",
     "hint_from_stray",
-    "probe_complete",
-    "read_probe",
 ]
-
-_HEX2 = re.compile(rb"[0-9A-F]{2}")
 
 
 class FramingTracker:
@@ -109,63 +101,13 @@ def hint_from_reply(
     if rejected and printing and not framing.error_mark:
         return "'>@' while ER0 was assumed (ER1?)"
     if isinstance(event, DataReply) and not framing.checksum and fmt.has_data:
-        data = event.data
-        if len(data) > 2 and _HEX2.fullmatch(data[-2:].encode("ascii", "replace")):
-            try:
-                decode_reply(fmt, data[:-2])
-            except (ReplyFormatError, ValueError):
-                return None
+        if fits_with_checksum(fmt, event.data):
             return "a checksum after the data (SUM1?)"
+        return None
     if isinstance(event, ChecksumMismatch) and framing.checksum:
         content = event.raw[:-1]
         if content == b">":
             return "'>' CR without a checksum (SUM0?)"
-        if fmt.has_data and len(content) > 3 and content[:1] == b">":
-            try:
-                decode_reply(fmt, content[3:].decode("ascii", "replace"))
-            except (ReplyFormatError, ValueError):
-                return None
+        if fmt.has_data and fits_without_checksum(fmt, content):
             return "a reply without a checksum (SUM0?)"
     return None
-
-
-@dataclass(frozen=True)
-class ProbeReading:
-    """What a framing probe (``EE``, ``EL``, ``ER`` or ``SUM`` query) got back."""
-
-    value: int | None  # the digit, None when no reply was read
-    echo: bool = False  # the frame came back first (EE1)
-    checksum: bool = False  # the reply carried a valid checksum (SUM1)
-    not_accepted: bool = False  # '?': with SUM1 on, a frame without a checksum gets '?'
-
-
-def _reply_pattern(series: Series, body: str) -> re.Pattern[bytes]:
-    head = re.escape(series.mark + body.encode("ascii"))
-    return re.compile(rb"(?P<gt>>?)(?P<line>" + head + rb"(?P<d>[0-9]))(?P<sum>[0-9A-F]{2})?\r")
-
-
-def read_probe(raw: bytes, body: str, series: Series, sent: bytes) -> ProbeReading:
-    """Interpret the bytes that answered a one-digit query ``sent``, whatever the framing."""
-    echo = raw.startswith(sent)
-    rest = raw[len(sent) :] if echo else raw
-    if rest[:1] == b"?" or raw == b"?":
-        return ProbeReading(None, not_accepted=True)
-    match = _reply_pattern(series, body).fullmatch(rest)
-    if match is None:
-        return ProbeReading(None, echo=echo)
-    digits = match["sum"]
-    summed = False
-    if digits is not None:
-        content = (b">" if match["gt"] else b"") + match["line"]
-        if checksum(content) != digits:
-            return ProbeReading(None, echo=echo)  # corrupted: not trustworthy
-        summed = True
-    return ProbeReading(int(match["d"]), echo=echo, checksum=summed)
-
-
-def probe_complete(raw: bytes, sent: bytes) -> bool:
-    """Whether the probe's reply is in: a '?', or a CR after whatever echo came first."""
-    if raw[:1] == b"?":
-        return True
-    rest = raw[len(sent) :] if raw.startswith(sent) else raw
-    return rest.endswith(b"\r") and len(rest) > 1

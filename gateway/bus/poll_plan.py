@@ -1,11 +1,12 @@
-"""The poller's plan: per controller, a set of jobs with due times (issue 4, "Poller and state").
+"""The poller's plan: per controller, a set of jobs with due times.
 
 ========== ====================================== ===============================================
 job        commands                               when
 ========== ====================================== ===============================================
-status     ``""``; moving: ``""`` ``6{mt}``,      ``moving_period`` while a motor moves (the
-           then ``6{mt}`` alone, in turn          status every other time), else
-                                                  ``idle_period``; at once after a move starts
+status     ``""`` (moving, unconfirmed            ``moving_period`` while a motor moves (5.5 Hz),
+           selection: ``""`` ``97``)              else ``idle_period``; at once after a move
+                                                  starts or a stop was sent, and when the
+                                                  moving axis's position repeats
 settle     ``6{mt}`` ``CLM{mt}``                  at once when a move has ended (final position)
 sensors    ``CLM1`` ``CLM2``; moving: ``CL``      ``sensor_period``
 conditions ``90`` ``96`` ``GSS``                  ``condition_period`` (single bits clear nothing,
@@ -17,6 +18,10 @@ identify   ``""`` ``V`` ``94`` ``SUM``,           first contact, back online, li
            (``ER`` from ROM 1.19) once stopped
 probe      ``""``                                 offline: backoff ``probe_initial`` .. ``_max``
 ========== ====================================== ===============================================
+
+Not a job: while a motor moves, its position (``6``; ``6{mt}`` until the selection is
+confirmed) is read back to back by ``gateway.bus.position_stream``, as often as the line
+allows, between these jobs.
 
 What the controller does (moving, answering) is never kept here: the poller reads it from the
 state cache, the one home of that knowledge, and hands it to ``schedule``.
@@ -54,7 +59,9 @@ class Job(IntEnum):
 class PollConfig:
     """The poll plan's periods, in device seconds."""
 
-    moving_period: float = 0.050
+    #: the status of a moving controller (the end of the move, limits, EMS): 5 Hz and more,
+    #: with room for a read that waits behind another (the position is read back to back)
+    moving_period: float = 0.18
     idle_period: float = 1.0
     sensor_period: float = 5.0
     condition_period: float = 10.0
@@ -73,7 +80,6 @@ class BodyPlan:
     due: dict[Job, float] = field(default_factory=dict)
     misses: int = 0  # polls in a row nobody answered
     probe_delay: float = 0.0
-    moving_polls: int = 0  # polls of a moving controller: every other one reads the status
     ran_due: float = 0.0  # the due time of the job running (or run last)
     deferred: list[str] = field(default_factory=list)  # reads refused while moving, to do
 
@@ -91,7 +97,7 @@ class PollPlan:
         return device_seconds / self.time_scale
 
     def restart(self) -> None:
-        """Read every controller again from the device (start, link up: issue 4)."""
+        """Read every controller again from the device (start, link up)."""
         for plan in self.bodies.values():
             plan.due = {Job.IDENTIFY: 0.0}
             plan.misses, plan.deferred = 0, []

@@ -1,4 +1,4 @@
-"""Adaptive background polling of one loop, at ``Priority.POLL`` (issue 4, "Poller and state").
+"""Adaptive background polling of one loop, at ``Priority.POLL``.
 
 The poller asks; the state cache learns from the scheduler's ``ReplyObserved`` events, so what
 the poller reads is latched exactly like what anyone else reads (DESIGN invariant 4). Its plan,
@@ -12,11 +12,14 @@ changes (a motion ended: its final position; a controller answering again), and 
 events only by noting work for its own task, which reads the cache when it runs: whether the
 cache or the poller hears an event first never changes what the poller does.
 
-The poller has one transaction in flight at a time; of the jobs that are due it runs the most
-urgent (the order of ``Job``), then the one due longest. A moving axis therefore gets its
-``""`` + ``6{mt}`` every ``moving_period`` however many idle controllers share the line, and
-operator commands (a higher priority) always go first. Periods are device seconds; the
-scheduler's ``time_scale`` maps them to host time for the simulator.
+The poller has one transaction of its plan in flight at a time; of the jobs that are due it
+runs the most urgent (the order of ``Job``), then the one due longest. Beside the plan, the
+loop's ``PositionStream`` reads the moving axes' positions back to back, in turn (the next
+read asked for the moment the last is answered), while the plan reads a moving controller's
+status every ``moving_period`` (5 Hz and more: the end of the move, limits, EMS) and the idle
+controllers at their own periods, between the stream's reads (a due poll waits for one at
+most). Operator commands (a higher priority) always go first. Periods are device seconds;
+the scheduler's ``time_scale`` maps them to host time for the simulator.
 """
 
 from __future__ import annotations
@@ -24,11 +27,11 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
-from collections.abc import Callable, Iterable, Sequence
-from typing import Protocol
+from collections.abc import Callable, Iterable
 
 from gateway.bus.events import BusEvent, ControllerAnswering, LinkDown, LinkUp, ReplyObserved
 from gateway.bus.poll_plan import BodyPlan, Job, PollConfig, PollPlan
+from gateway.bus.position_stream import PositionStream, Submitter
 from gateway.bus.requests import BusError, LoopDown, Priority, ReplyKind, TransactionResult
 from gateway.bus.scheduler import LoopScheduler
 from gateway.bus.state import Change, StateCache
@@ -40,26 +43,6 @@ from gateway.protocol.spec import Effect
 __all__ = ["Job", "PollConfig", "Poller", "Submitter", "attach"]
 
 log = logging.getLogger("gateway.bus")
-
-
-class Submitter(Protocol):
-    """What the poller needs of the loop scheduler."""
-
-    async def submit(
-        self,
-        body: str,
-        commands: Sequence[Command],
-        *,
-        priority: Priority,
-        motor: int | None = None,
-        deadline: float | None = None,
-    ) -> TransactionResult:
-        """Run ``commands`` on ``body`` as one transaction."""
-        ...
-
-    def forget(self, body: str | None = None) -> None:
-        """Drop what the scheduler assumed of ``body`` (selection, framing)."""
-        ...
 
 
 _COMMANDS: dict[str, Command] = {}
@@ -106,8 +89,11 @@ class Poller:
         #: poller's task, after every subscriber has taken the event
         self._poll_soon: set[str] = set()
         self._back: set[str] = set()
+        self._watch: set[str] = set()  # controllers seen starting to move
         #: polls made, per job (diagnostics)
         self.counts: dict[Job, int] = dict.fromkeys(Job, 0)
+        #: the moving axes' positions, read back to back in turn
+        self._positions = PositionStream(scheduler, state, loop, on_still=self.poll_now)
         self._plan.restart()
         state.listen(self._on_change)
 
@@ -138,6 +124,12 @@ class Poller:
             task.cancel()
             with contextlib.suppress(asyncio.CancelledError):
                 await task
+        await self._positions.stop()
+
+    @property
+    def position_reads(self) -> int:
+        """Position reads of moving axes answered (diagnostics)."""
+        return self._positions.reads
 
     def poll_now(self, body: str) -> None:
         """Read ``body``'s status at once (a move started or a stop was sent)."""
@@ -146,10 +138,10 @@ class Poller:
             self._wake.set()
 
     def _online(self, body: str) -> bool | None:
-        return self._state.controller(self.loop, body).online
+        return self._state.flags(self.loop, body).online
 
     def _moving(self, body: str) -> bool:
-        return self._state.controller(self.loop, body).moving
+        return self._state.flags(self.loop, body).moving
 
     def handle(self, event: BusEvent) -> None:
         """Take one scheduler event (subscribe this to its ``EventBus``, in any order)."""
@@ -176,6 +168,9 @@ class Poller:
         plan = self._plan.bodies.get(change.body)
         if plan is None:
             return
+        if change.values.get("moving") is True:
+            self._watch.add(change.body)  # its position stream, from the poller's task
+            self._wake.set()
         if change.values.get("moving") is False and self._online(change.body):
             plan.due[Job.SETTLE] = self.now()  # the move has ended: its final position now
             self._wake.set()
@@ -191,7 +186,18 @@ class Poller:
         self._back.clear()
         for body in sorted(self._poll_soon):
             self._plan.poll_now(body, self._online(body))
+        # A move seen starting: its positions from now on, unless its status is to be read
+        # at once (a move or stop sent): that read goes first and starts them when answered.
+        for body in sorted(self._watch - self._poll_soon):
+            self._stream(body)
         self._poll_soon.clear()
+        self._watch.clear()
+
+    def _stream(self, body: str) -> None:
+        """Read the position of ``body``'s moving axis back to back (if it moves and the
+        link is up; a stream ends by itself when the move ends)."""
+        if self._link_up.is_set() and self._task is not None:
+            self._positions.watch(body)
 
     # ------------------------------------------------------------------ the jobs
 
@@ -226,32 +232,28 @@ class Poller:
 
     def _schedule(self, plan: BodyPlan, job: Job, *, identified: bool = False) -> None:
         """The next due time of ``job``, from what the cache knows of the controller now."""
-        ctl = self._state.controller(self.loop, plan.body)
+        ctl = self._state.flags(self.loop, plan.body)
         self._plan.schedule(
             plan, job, self.now(), online=ctl.online, moving=ctl.moving, identified=identified
         )
 
     async def _run_job(self, plan: BodyPlan, job: Job) -> None:
         self.counts[job] += 1
-        ctl = self._state.controller(self.loop, plan.body)
+        ctl = self._state.flags(self.loop, plan.body)
         motor = ctl.selected_motor or ctl.last_moved or 1
         identified = False
         if job is Job.IDENTIFY:
             identified = await self._identify(plan, ctl.online)
-        elif job is Job.STATUS_MOVING and ctl.moving and plan.moving_polls % 2:
-            # The position every moving period, the status every other one (100 ms: EMS and
-            # limits within one status poll), so that one moving axis among 15 controllers
-            # still gets its 15 position reads a second on a 9600 bps line.
-            plan.moving_polls += 1
-            await self._poll(plan, f"6{motor}")
         elif job in (Job.STATUS, Job.STATUS_MOVING, Job.PROBE):
             # While a motor moves it is the selected one (F is refused, §10 F): an unconfirmed
-            # selection is read back with 97 in the same transaction.
-            confirm = [] if ctl.selection_confirmed else ["97"]
-            moving = [*confirm, f"6{motor}"] if ctl.moving and job is not Job.PROBE else []
-            plan.moving_polls = 1 if moving else 0
-            answered = await self._poll(plan, "", *moving, was=ctl.online)
-            if answered and not self._moving(plan.body) and plan.deferred:
+            # selection is read back with 97 in the same transaction, so that the position
+            # stream can read 6 without a suffix.
+            confirm = [] if ctl.selection_confirmed or not ctl.moving else ["97"]
+            texts = confirm if job is not Job.PROBE else []
+            answered = await self._poll(plan, "", *texts, was=ctl.online)
+            if answered and self._moving(plan.body):
+                self._stream(plan.body)  # a move seen (or one whose stream was cut off)
+            elif answered and plan.deferred:
                 await self._poll(plan, *plan.deferred)
         elif job is Job.SETTLE:  # the move has ended: its final position and sensors
             moved = ctl.last_moved or motor

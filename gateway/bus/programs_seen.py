@@ -20,13 +20,11 @@ like it, and a wrong "printing" would slow every reply of the loop.
 from __future__ import annotations
 
 from gateway.bus.events import BusEvent, ReplyObserved
+from gateway.protocol.commands import PROGRAM_ENDS, PROGRAM_STARTS
 from gateway.protocol.models import Command
 from gateway.protocol.reply_values import ProgramState
 
 __all__ = ["ProgramsSeen"]
-
-_STARTS = frozenset({"G", "G{lb}", "GC"})
-_ENDS = frozenset({"GE", "GES"})
 
 
 class ProgramsSeen:
@@ -49,16 +47,16 @@ class ProgramsSeen:
         2 ms after the frame (docs/manual-notes.md "Statement time"), right behind the '>'
         of G and before the scheduler has seen that '>': count it as running from the send
         (a ``G`` the device refuses is corrected by the ``GSS`` that follows it)."""
-        if command.key in _STARTS:
+        if command.form in PROGRAM_STARTS:
             self._bodies.add(body)
 
     def handle(self, event: BusEvent) -> None:
         """Follow the loop's bus events (subscribe this to the scheduler's ``events``)."""
         if isinstance(event, ReplyObserved) and not event.rejected:
-            key, value = event.command.key, event.value
-            if key in _STARTS and value is None:
+            form, value = event.command.form, event.value
+            if form in PROGRAM_STARTS and value is None:
                 self._bodies.add(event.body)
-            elif key in _ENDS and value is None:
+            elif form in PROGRAM_ENDS and value is None:
                 self._bodies.discard(event.body)
             elif isinstance(value, ProgramState):
                 if value in (ProgramState.RUNNING, ProgramState.PAUSED):

@@ -1,7 +1,8 @@
 """What one decoded reply tells the state cache: dispatch on the command's reply format.
 
 ``apply_reply`` is the reply half of ``StateCache.observe``; it writes through the cache's
-own setters, so every field it moves is numbered and published like any other change.
+public setters (``StateWriter``, which the cache is), so every field it moves is numbered and
+published like any other change, and this module needs nothing of ``gateway.bus.state``.
 Reads that clear device flags (``""``, ``9`` form I, ``GSS``) latch what they report here,
 or it would be lost (§10 "" 注意点, §10 9 ①, §10 GSS).
 """
@@ -12,7 +13,7 @@ import contextlib
 from collections.abc import Iterable
 from dataclasses import replace
 from types import MappingProxyType
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 from gateway.bus.state_types import MOTORS, ControllerState, ErrorKind
 from gateway.protocol.framing import POWER_ON
@@ -27,17 +28,40 @@ from gateway.protocol.reply_values import (
 )
 from gateway.protocol.spec import Effect
 
-if TYPE_CHECKING:
-    from gateway.bus.state import StateCache
+__all__ = ["StateWriter", "apply_reply"]
 
-__all__ = ["apply_reply"]
+
+class StateWriter(Protocol):
+    """What a reply is written through (``gateway.bus.state.StateCache``)."""
+
+    #: per controller, the errors ``""`` reported since the last ``9`` form I read
+    status_since_condition: dict[tuple[str, str], frozenset[ErrorKind]]
+
+    def flags(self, loop: str, body: str) -> ControllerState:
+        """One controller as last changed (its ``updated`` may lag)."""
+        ...
+
+    def write_controller(self, now: float, loop: str, body: str, **values: Any) -> None:
+        """Set fields of one controller."""
+        ...
+
+    def write_axis(self, now: float, loop: str, body: str, motor: int, **values: Any) -> None:
+        """Set fields of one axis."""
+        ...
+
+    def latch(
+        self, now: float, loop: str, body: str, kinds: Iterable[ErrorKind], source: str
+    ) -> None:
+        """Latch the errors ``kinds`` the reply to ``source`` reported."""
+        ...
+
 
 _STATUS_KINDS = {"limit_error": ErrorKind.LIMIT, "emergency_stop": ErrorKind.EMERGENCY}
 _STATUS_KINDS["command_error"] = ErrorKind.COMMAND
 
 
 def apply_reply(
-    cache: StateCache,
+    cache: StateWriter,
     loop: str,
     body: str,
     command: Command,
@@ -56,7 +80,7 @@ class _Reading:
 
     def __init__(
         self,
-        cache: StateCache,
+        cache: StateWriter,
         loop: str,
         body: str,
         command: Command,
@@ -71,16 +95,16 @@ class _Reading:
         return self.command.motor or self.hint or ctl.selected_motor
 
     def ctl(self, **values: Any) -> None:
-        self.cache._set_ctl(self.now, self.loop, self.body, **values)
+        self.cache.write_controller(self.now, self.loop, self.body, **values)
 
     def axis(self, motor: int, **values: Any) -> None:
-        self.cache._set_axis(self.now, self.loop, self.body, motor, **values)
+        self.cache.write_axis(self.now, self.loop, self.body, motor, **values)
 
     def latch(self, kinds: Iterable[ErrorKind]) -> None:
-        self.cache._latch(self.now, self.loop, self.body, kinds, self.command.key)
+        self.cache.latch(self.now, self.loop, self.body, kinds, self.command.key)
 
     def apply(self, value: ReplyValue | None, rejected: bool) -> None:
-        ctl = self.cache.controller(self.loop, self.body)
+        ctl = self.cache.flags(self.loop, self.body)
         self.ctl(online=True, updated=self.now)
         if value is None and not rejected:  # '>' (a '>@' changed nothing, §10 ER)
             self.accepted(ctl)
@@ -123,7 +147,7 @@ class _Reading:
 
     def framing(self, switch: str, on: bool) -> None:
         names = {"EE": "echo", "EL": "cr_after_ack", "ER": "error_mark", "SUM": "checksum"}
-        current = self.cache.controller(self.loop, self.body).framing or POWER_ON
+        current = self.cache.flags(self.loop, self.body).framing or POWER_ON
         with contextlib.suppress(ValueError):  # EE1 with SUM1: refused (§10 EE, SUM)
             self.ctl(framing=replace(current, **{names[switch]: on}))
 
@@ -135,8 +159,9 @@ class _Reading:
         kinds = {k for name, k in _STATUS_KINDS.items() if getattr(flags, name)}
         self.latch(kinds)
         # The condition store keeps these until a 9 form I read (§10 9 ③): not new then.
-        seen = self.cache.status_since_condition
-        seen[self.loop, self.body] = seen.get((self.loop, self.body), frozenset()) | kinds
+        if kinds:
+            seen = self.cache.status_since_condition
+            seen[self.loop, self.body] = seen.get((self.loop, self.body), frozenset()) | kinds
         for m in MOTORS:
             self.axis(m, updated=self.now, stale=False)
 

@@ -28,10 +28,9 @@ from __future__ import annotations
 
 import functools
 
-from gateway.bus.requests import STOP_KEYS
+from gateway.protocol import commands
 from gateway.protocol.framing import Framing
 from gateway.protocol.models import Command
-from gateway.protocol.registry import parse
 from gateway.protocol.replies import ReplyValue
 from gateway.protocol.reply_values import ConditionFlags
 from gateway.protocol.spec import Scope
@@ -53,31 +52,31 @@ def needs_selection(command: Command) -> bool:
     return (
         command.spec.scope is Scope.PER_MOTOR
         and command.form.motor_param is None
-        and command.key not in STOP_KEYS
+        and not command.form.is_stop
     )
 
 
-@functools.cache  # command models are frozen: one parse serves every selection
+@functools.cache  # command models are frozen: one model serves every selection
 def select_command(motor: int) -> Command:
     """``F{motor}``."""
-    return parse(f"F{motor}")
+    return commands.select_motor(motor)
 
 
 @functools.cache
 def confirm_command() -> Command:
     """``97``: the selected-motor bit of the condition flags."""
-    return parse(f"9{_SELECTED_BIT}")
+    return commands.condition_bit(_SELECTED_BIT)
 
 
 def selection_from_reply(command: Command, value: ReplyValue | None) -> int | None:
     """The selected motor a reply shows, or None when it shows none."""
     if value is None or isinstance(value, bool):
         return None
-    if command.key == "9" and isinstance(value, ConditionFlags):
+    if command.form is commands.CONDITION and isinstance(value, ConditionFlags):
         return value.selected_motor
-    if command.key == "9{bit}" and int(command.params()["bit"]) == _SELECTED_BIT:
+    if command.form is commands.CONDITION_BIT and int(command.params()["bit"]) == _SELECTED_BIT:
         return 2 if value == 1 else 1 if value == 0 else None
-    if command.key == "F" and value in (1, 2):
+    if command.form is commands.SELECTED_MOTOR and value in (1, 2):
         return int(value)
     return None
 
@@ -92,6 +91,6 @@ def after_accepted(command: Command, framing: Framing) -> int | bool | None:
         return False
     motor = command.motor
     # F is confirmed by the caller (97) unless ER1; a suffix is executed under ER1.
-    if (command.key == "F{mt}" or framing.error_mark) and motor is not None:
+    if (command.form is commands.SELECT_MOTOR or framing.error_mark) and motor is not None:
         return motor
     return None

@@ -28,7 +28,7 @@ import logging
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import replace
 from types import MappingProxyType
-from typing import Any
+from typing import Any, TypeVar
 
 from gateway.bus.changes import ChangeLog, FellBehind, Subscription
 from gateway.bus.events import (
@@ -74,6 +74,8 @@ __all__ = [
 
 log = logging.getLogger("gateway.bus")
 
+_R = TypeVar("_R", LoopState, ControllerState, AxisState)
+
 
 class StateCache(ChangeLog):
     """The latched state of every loop; fed with replies, read by snapshot, change or stream."""
@@ -90,21 +92,30 @@ class StateCache(ChangeLog):
         self.status_since_condition: dict[tuple[str, str], frozenset[ErrorKind]] = {}
         self.counters_period = 1.0
         self._followers: list[Callable[[BusEvent], None]] = []
+        #: the ``updated`` of controllers and axes whose latest reply changed nothing else
+        #: (``_fold``), by their keys: (loop, body) and (loop, body, motor)
+        self._fresh: dict[tuple[str, str] | tuple[str, str, int], float] = {}
 
     # ------------------------------------------------------------------ reading
     # (seq, changes_since, subscribe and listen: see ChangeLog)
 
     def loop(self, name: str) -> LoopState:
         """One loop (a blank one if nothing was heard of it)."""
-        return self._loops.get(name) or LoopState(name)
+        return self._fold(self._loops, name) or LoopState(name)
 
     def controller(self, loop: str, body: str) -> ControllerState:
         """One controller (a blank one if nothing was heard of it)."""
+        return self._fold(self._ctls, (loop, body)) or ControllerState(body)
+
+    def flags(self, loop: str, body: str) -> ControllerState:
+        """One controller as last changed, without the time of its latest reply (``updated``
+        may lag behind): for readers that ask what it does many times a poll (the poller),
+        so that an idle poll copies no record."""
         return self._ctls.get((loop, body)) or ControllerState(body)
 
     def axis(self, loop: str, body: str, motor: int) -> AxisState:
         """One axis (a blank one if nothing was heard of it)."""
-        return self._axes.get((loop, body, motor)) or AxisState(motor)
+        return self._fold(self._axes, (loop, body, motor)) or AxisState(motor)
 
     def bodies(self, loop: str) -> list[str]:
         """The controllers of ``loop`` the cache knows, in body order."""
@@ -112,6 +123,10 @@ class StateCache(ChangeLog):
 
     def snapshot(self) -> Snapshot:
         """Everything, with the sequence number to ask ``changes_since`` from next."""
+        for key in list(self._fresh):
+            # (loop, body, motor): an axis; (loop, body): a controller (a loop has no reply time)
+            store: dict[Any, Any] = self._axes if len(key) == 3 else self._ctls
+            self._fold(store, key)
         return Snapshot(
             self._seq,
             MappingProxyType(dict(self._loops)),
@@ -120,47 +135,70 @@ class StateCache(ChangeLog):
         )
 
     # ------------------------------------------------------------------ writing
+    # ``updated`` moves with every reply: it is kept in ``_fresh`` and folded into the record
+    # when someone reads it, so that a poll that changes nothing else copies no record.
+
+    def _fold(self, store: dict[Any, _R], key: Any) -> _R | None:
+        """The record under ``key`` with its latest ``updated`` (stored, if it was behind)."""
+        record = store.get(key)
+        if record is not None and key in self._fresh:
+            record = store[key] = replace(record, updated=self._fresh.pop(key))
+        return record
 
     def _set(
         self,
-        store: dict[Any, Any],
+        store: dict[Any, _R],
+        key: Any,
         where: tuple[str, str | None, int | None],
-        old: Any,
+        blank: Callable[[], _R],
         now: float,
         **values: Any,
-    ) -> None:
-        """Store ``old`` with ``values`` under ``where`` and publish the fields that changed;
-        a change of ``updated`` alone is stored silently (it moves with every poll)."""
-        key = where[0] if where[1] is None else where[:2] if where[2] is None else where
+    ) -> bool:
+        """Store the record under ``key`` (``blank()`` if none) with ``values`` and publish
+        the fields that changed; a change of ``updated`` alone is kept silently (see above).
+        True when the record changed."""
+        updated = values.pop("updated", None)
+        old = store.get(key)
+        if old is None:
+            old = store[key] = blank()
+        if updated is not None:
+            self._fresh[key] = updated
         changed = {k: v for k, v in values.items() if getattr(old, k) != v}
         if not changed:
-            store.setdefault(key, old)
-            return
+            return False
+        if updated is not None:  # published with the fields that changed, as it was read
+            changed["updated"] = self._fresh.pop(key)
         store[key] = replace(old, **changed)
-        if set(changed) - {"updated"}:
-            self._emit(now, *where, **changed)
+        self._emit(now, *where, **changed)
+        return True
 
     def _set_loop(self, now: float, name: str, **values: Any) -> None:
-        self._set(self._loops, (name, None, None), self.loop(name), now, **values)
+        self._set(self._loops, name, (name, None, None), lambda: LoopState(name), now, **values)
 
-    def _set_ctl(self, now: float, loop: str, body: str, **values: Any) -> None:
-        if (loop, body) not in self._ctls:
+    def write_controller(self, now: float, loop: str, body: str, **values: Any) -> None:
+        """Set fields of one controller (and the axis fields that follow from them)."""
+        new = (loop, body) not in self._ctls
+        if new:
             for m in MOTORS:
                 self._axes[loop, body, m] = AxisState(m)
-        self._set(self._ctls, (loop, body, None), self.controller(loop, body), now, **values)
-        self._derive_axes(now, loop, body)
+        blank = lambda: ControllerState(body)  # noqa: E731
+        changed = self._set(self._ctls, (loop, body), (loop, body, None), blank, now, **values)
+        if changed or new:  # the axes follow the controller's record, not the time of a reply
+            self._derive_axes(now, loop, body)
 
-    def _set_axis(self, now: float, loop: str, body: str, motor: int, **values: Any) -> None:
-        self._set(self._axes, (loop, body, motor), self.axis(loop, body, motor), now, **values)
+    def write_axis(self, now: float, loop: str, body: str, motor: int, **values: Any) -> None:
+        """Set fields of one axis."""
+        key = (loop, body, motor)
+        self._set(self._axes, key, key, lambda: AxisState(motor), now, **values)
 
     def _derive_axes(self, now: float, loop: str, body: str) -> None:
         """The axis fields that follow from the controller: moving, selected, errors."""
-        ctl = self._ctls[loop, body]
+        ctl = self._ctls[loop, body]  # its updated does not matter here
         moving_motor = ctl.selected_motor if ctl.moving else None
         for m in MOTORS:
             shows = {k: m in ctl.latched[k].axes for k in AXIS_ERRORS if k in ctl.latched}
             step_out = bool(ctl.condition_bits.get(6)) and error_motor(ctl) in (None, m)
-            self._set_axis(
+            self.write_axis(
                 now,
                 loop,
                 body,
@@ -173,13 +211,16 @@ class StateCache(ChangeLog):
                 command_error=shows.get(ErrorKind.COMMAND, False),
             )
 
-    def _latch(
+    def latch(
         self, now: float, loop: str, body: str, kinds: Iterable[ErrorKind], source: str
     ) -> None:
-        ctl = self.controller(loop, body)
+        """Latch the errors ``kinds`` a read (the reply to ``source``) reported."""
+        ctl = self.flags(loop, body)
+        if not kinds and not ctl.latched:
+            return  # nothing reported, nothing held: the usual poll
         latched = latch_errors(ctl, kinds, now, source)
         if latched != ctl.latched:
-            self._set_ctl(now, loop, body, latched=MappingProxyType(latched))
+            self.write_controller(now, loop, body, latched=MappingProxyType(latched))
 
     def acknowledge(
         self,
@@ -199,7 +240,7 @@ class StateCache(ChangeLog):
         ctl = self.controller(loop, body)
         latched, cleared = unlatch(ctl.latched, motor=motor, kinds=kinds)
         if latched != ctl.latched:
-            self._set_ctl(now, loop, body, latched=MappingProxyType(latched))
+            self.write_controller(now, loop, body, latched=MappingProxyType(latched))
         return cleared
 
     def observe(
@@ -254,8 +295,11 @@ class StateCache(ChangeLog):
         elif isinstance(event, LinkDown):
             self.set_link(event.loop, False, event.time, event.cause)
         elif isinstance(event, TransactionDone):
-            counters = dataclasses.asdict(event.counters)
-            self.set_loop_stats(event.loop, event.time, counters=counters, queue_depth=queue_depth)
+            if self._stats_due(event.loop, event.time):  # a copy of them only when published
+                counters = dataclasses.asdict(event.counters)
+                self.set_loop_stats(
+                    event.loop, event.time, counters=counters, queue_depth=queue_depth
+                )
         elif isinstance(event, FramingChanged):
             self.set_framing(event.loop, event.body, event.framing, event.time)
         elif isinstance(event, ControllerAnswering):
@@ -264,7 +308,7 @@ class StateCache(ChangeLog):
             # The scheduler's word: None, in doubt; a motor, read back or executed under ER1.
             confirmed = {"selection_confirmed": event.motor is not None}
             motor = {} if event.motor is None else {"selected_motor": event.motor}
-            self._set_ctl(event.time, event.loop, event.body, **confirmed, **motor)
+            self.write_controller(event.time, event.loop, event.body, **confirmed, **motor)
 
     def set_link(self, loop: str, up: bool, now: float, cause: str | None = None) -> None:
         """The loop went up or down. Down: every controller's data is stale; up: nothing is
@@ -276,7 +320,7 @@ class StateCache(ChangeLog):
         for name, body in [k for k in self._ctls if k[0] == loop]:
             # Nothing a silent loop said is current: not even that a motor moves (a moving
             # flag that outlived the line would answer requests as a busy controller).
-            self._set_ctl(
+            self.write_controller(
                 now,
                 name,
                 body,
@@ -286,20 +330,20 @@ class StateCache(ChangeLog):
                 signed_positions=None,
             )
             for m in MOTORS:
-                self._set_axis(now, name, body, m, stale=True)
+                self.write_axis(now, name, body, m, stale=True)
 
     def set_online(self, loop: str, body: str, online: bool, now: float) -> None:
         """The poller found the controller answering (or not): off and back, it has reloaded
         its settings from the EEPROM (§16), EP among them."""
-        self._set_ctl(now, loop, body, online=online, signed_positions=None)
+        self.write_controller(now, loop, body, online=online, signed_positions=None)
         if not online:  # switched off: nothing moves; power-on resets the selection (§16)
-            self._set_ctl(now, loop, body, moving=False, selection_confirmed=False)
+            self.write_controller(now, loop, body, moving=False, selection_confirmed=False)
             for m in MOTORS:
-                self._set_axis(now, loop, body, m, stale=True)
+                self.write_axis(now, loop, body, m, stale=True)
 
     def set_framing(self, loop: str, body: str, framing: Framing, now: float) -> None:
         """The framing the scheduler uses for the controller (it owns EE/EL/ER/SUM)."""
-        self._set_ctl(now, loop, body, framing=framing)
+        self.write_controller(now, loop, body, framing=framing)
 
     def set_loop_stats(
         self,
@@ -311,16 +355,22 @@ class StateCache(ChangeLog):
     ) -> None:
         """The scheduler's counters (and queue depth); published at most every
         ``counters_period`` seconds so a busy line does not flood the history."""
-        last = self._counters_published.get(loop)
-        if last is not None and now - last < self.counters_period:
+        if not self._stats_due(loop, now):
             return
         self._counters_published[loop] = now
         depth = {} if queue_depth is None else {"queue_depth": queue_depth}
         self._set_loop(now, loop, counters=MappingProxyType(dict(counters)), **depth)
 
+    def _stats_due(self, loop: str, now: float) -> bool:
+        last = self._counters_published.get(loop)
+        return last is None or now - last >= self.counters_period
+
     def refresh(self, now: float) -> None:
         """Mark the axes without fresh data for ``stale_after`` seconds stale."""
-        for (loop, body, m), axis in list(self._axes.items()):
-            old = axis.updated is None or now - axis.updated > self.stale_after
-            if old and not axis.stale:
-                self._set_axis(now, loop, body, m, stale=True)
+        for key, axis in list(self._axes.items()):
+            if axis.stale:
+                continue
+            loop, body, m = key
+            updated = self._fresh.get(key, axis.updated)
+            if updated is None or now - updated > self.stale_after:
+                self.write_axis(now, loop, body, m, stale=True)

@@ -18,10 +18,10 @@ from gateway.bus.core import LoopCore
 from gateway.bus.detect import ensure_framing
 from gateway.bus.requests import CommandResult, Outcome, ReplyKind
 from gateway.bus.timing import ack_chars
+from gateway.protocol import commands
 from gateway.protocol.framing import CR, to_wire
 from gateway.protocol.models import Command
 from gateway.protocol.program import Program, upload_chunks
-from gateway.protocol.registry import parse
 from gateway.protocol.replies import ReplyValue
 from gateway.protocol.reply_parser import Accepted, CommandRejected
 
@@ -60,7 +60,7 @@ async def upload(
             command, text_kind, Outcome.NOT_DONE, attempts=attempts, seen=seen, note="refused"
         )
     core.counters.verifications += 1
-    stored = await query(parse("IR"))
+    stored = await query(commands.program_text())
     seen["read_back"] = stored
     if stored is None:
         outcome = Outcome.UNKNOWN

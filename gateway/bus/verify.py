@@ -26,11 +26,13 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from gateway.bus.requests import Outcome
+from gateway.protocol import commands
+from gateway.protocol.commands import SPEED_STEPS, SpeedName
 from gateway.protocol.models import Command
-from gateway.protocol.registry import parse
 from gateway.protocol.replies import ReplyValue
 from gateway.protocol.reply_values import ErrorOutput, ErrorWatch, PortByte, StatusFlags
 from gateway.protocol.spec import Effect
+from gateway.protocol.speeds import OS_MAX, SPEED_DATA_MAX
 
 __all__ = [
     "ValueCheck",
@@ -42,19 +44,23 @@ __all__ = [
 ]
 
 #: §10 OH, OL: speed data 1-16,383; §10 OS: acceleration data 1-32,767.
-_RANGES = {"OH": (1, 16383), "OL": (1, 16383), "OS": (1, 32767)}
+_RANGES: dict[SpeedName, tuple[int, int]] = {
+    "OH": (1, SPEED_DATA_MAX),
+    "OL": (1, SPEED_DATA_MAX),
+    "OS": (1, OS_MAX),
+}
 
 
-@functools.cache  # command models are frozen: one parse serves every read-back
+@functools.cache  # command models are frozen: one model serves every read-back
 def status_query() -> Command:
     """``""``: the status flags (bit 0 = moving; bits 1-3 cleared by this read, §10 "")."""
-    return parse("")
+    return commands.status()
 
 
 @functools.cache
 def position_query(motor: int | None) -> Command:
     """``6{mt}`` for a known motor (keeps the selection, §10 F), else ``6`` (selected motor)."""
-    return parse(f"6{motor}" if motor is not None else "6")
+    return commands.position(motor)
 
 
 def motion_outcome(status: StatusFlags | None, before: int | None, after: int | None) -> Outcome:
@@ -84,7 +90,7 @@ class ValueCheck:
     expected: Callable[[ReplyValue], ReplyValue]
 
 
-def _step(mnemonic: str, sign: int, amount: int) -> Callable[[ReplyValue], ReplyValue]:
+def _step(mnemonic: SpeedName, sign: int, amount: int) -> Callable[[ReplyValue], ReplyValue]:
     lo, hi = _RANGES[mnemonic]
 
     def expected(before: ReplyValue) -> ReplyValue:
@@ -100,21 +106,21 @@ def _step(mnemonic: str, sign: int, amount: int) -> Callable[[ReplyValue], Reply
 
 def value_check(command: Command) -> ValueCheck | None:
     """The read-back of a non-idempotent setting, or None when none can tell."""
-    key = command.key
+    form = command.form
     params = command.params()
     for mnemonic in _RANGES:
-        if key in (f"{mnemonic}I{{id}}", f"{mnemonic}D{{dd}}"):
-            up = key.startswith(f"{mnemonic}I")
+        if form in SPEED_STEPS[mnemonic]:
+            up = "id" in params
             amount = int(params["id"] if up else params["dd"])
-            return ValueCheck(parse(mnemonic), _step(mnemonic, 1 if up else -1, amount))
-    if key == "K{dt},{du}{dl}":
+            return ValueCheck(commands.speed(mnemonic), _step(mnemonic, 1 if up else -1, amount))
+    if form is commands.ERROR_OUTPUT_MASK:
         value = ErrorOutput(
             ErrorWatch(int(params["dt"])), PortByte(int(params["du"]) << 4 | int(params["dl"]))
         )
-        return ValueCheck(parse("K"), lambda _before: value)
-    if key == "K{dt},{bt}":
+        return ValueCheck(commands.error_output(), lambda _before: value)
+    if form is commands.ERROR_OUTPUT_BITS:
         value = ErrorOutput(ErrorWatch(int(params["dt"])), PortByte.of(int(params["bt"])))
-        return ValueCheck(parse("K"), lambda _before: value)
+        return ValueCheck(commands.error_output(), lambda _before: value)
     return None
 
 

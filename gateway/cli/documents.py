@@ -16,8 +16,8 @@ from gateway.api.app import create_app
 from gateway.api.asyncapi import asyncapi_document
 from gateway.api.security import AuthConfig, TokenBook, hash_token, new_token
 from gateway.api.ws_messages import ws_schema
-from gateway.service.gateway import Gateway
-from gateway.service.simulated import SIM_LOOP, simulated_config
+from gateway.service.runtime.runtime import Runtime
+from gateway.service.runtime.simulated import SIM_LOOP, simulated_config
 from gateway.transport.pipe import PipeTransport
 
 __all__ = ["add_document_parsers", "documents", "render"]
@@ -34,7 +34,7 @@ def _never() -> Any:
 def documents() -> dict[str, dict[str, Any]]:
     """File name -> document: the OpenAPI document, the WebSocket message schema and the
     WebSocket's AsyncAPI document."""
-    gateway = Gateway(simulated_config(), transports={SIM_LOOP: PipeTransport(_never)})
+    gateway = Runtime(simulated_config(), transports={SIM_LOOP: PipeTransport(_never)})
     app = create_app(gateway, auth=AuthConfig(TokenBook()))
     return {OPENAPI_FILE: app.openapi(), WS_FILE: ws_schema(), ASYNCAPI_FILE: asyncapi_document()}
 

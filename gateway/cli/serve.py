@@ -37,9 +37,9 @@ from gateway.mqtt.commands import DeviceCommands
 from gateway.mqtt.edge_node import EdgeNode
 from gateway.protocol.framing import Series
 from gateway.service.config import ConfigError, GatewayConfig
-from gateway.service.gateway import Gateway
-from gateway.service.simulated import SIM_LOOP, simulated_config
-from gateway.service.state_log import StateLog
+from gateway.service.runtime.runtime import Runtime
+from gateway.service.runtime.simulated import SIM_LOOP, simulated_config
+from gateway.service.runtime.state_log import StateLog
 from gateway.sim.cli import (
     add_clock_option,
     build_loop,
@@ -54,14 +54,27 @@ from gateway.sim.loop import SimLoop
 from gateway.sim.scene import SceneError, load_scene
 from gateway.sim.serve import SimPort
 from gateway.transport.base import Transport
+from gateway.transport.factory import open_transport
 from gateway.transport.pipe import PipeTransport
 
-__all__ = ["add_serve_parser"]
+__all__ = ["add_serve_parser", "open_lines", "sim_line"]
 
 log = logging.getLogger("gateway")
 
 DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 8233
+
+
+def freeze_heap() -> None:
+    """Move everything alive now out of the collector's sight (``gc.freeze``).
+
+    Called once the app has started (its lifespan ran: loops open, poller, feed, routes):
+    what exists then lives as long as the process, and a full collection that walks it again
+    and again paused the WebSocket fan-out by ~140 ms (bench/README.md). Objects made later
+    are collected as usual.
+    """
+    gc.collect()
+    gc.freeze()
 
 
 class _Server(uvicorn.Server):
@@ -79,6 +92,7 @@ class _Server(uvicorn.Server):
         """Start, then tell systemd (``Type=notify``) that HTTP requests are served."""
         await super().startup(sockets=sockets)
         if self.started:
+            freeze_heap()
             notify("READY=1")
 
     async def shutdown(self, sockets: list[socket.socket] | None = None) -> None:
@@ -166,6 +180,12 @@ def _simulated(
     return config, sims, transports
 
 
+def open_lines(config: GatewayConfig) -> dict[str, Transport]:
+    """The transport of every loop of ``config``: its ``port`` at its ``baud`` (not opened
+    yet: each loop's scheduler opens it, and opens it again after a loss)."""
+    return {loop.name: open_transport(loop.port, loop.baud) for loop in config.loops}
+
+
 def sim_line(sim: SimLoop) -> PipeTransport:
     """The in-process line to ``sim``: opened at another rate (``POST /loops/{loop}/baud``),
     it sets the simulated line's rate, the host's UART, so controllers at another rate hear
@@ -197,7 +217,7 @@ def _auth(args: argparse.Namespace, config: GatewayConfig) -> AuthConfig:
 
 
 def _edge_node(
-    gateway: Gateway, config: GatewayConfig, auth: AuthConfig, app: Any
+    gateway: Runtime, config: GatewayConfig, auth: AuthConfig, app: Any
 ) -> EdgeNode | None:
     """The Sparkplug B edge node of ``[mqtt]`` (None without the section); its DCMDs are
     authorised by the API's tokens (always: no-auth mode is for loopback, a broker is not)
@@ -229,8 +249,10 @@ async def serve(args: argparse.Namespace) -> int:
     if args.simulate:
         config, sims, transports = _simulated(args, config)
     assert config is not None
+    if not args.simulate:
+        transports = open_lines(config)
     auth = _auth(args, config)
-    gateway = Gateway(config, transports=transports, time_scale=args.time_scale)
+    gateway = Runtime(config, transports=transports, time_scale=args.time_scale)
     StateLog(gateway).start()
     app = create_app(gateway, auth=auth)
     control: asyncio.Server | None = None
@@ -263,10 +285,6 @@ async def serve(args: argparse.Namespace) -> int:
         flush=True,
     )
     edge_node = _edge_node(gateway, config, auth, app)
-    # Everything built so far lives as long as the process: keep the collector from walking
-    # it again and again (a full pass paused WebSocket fan-out by ~140 ms, bench/README.md).
-    gc.collect()
-    gc.freeze()
     node_task = asyncio.create_task(edge_node.run()) if edge_node is not None else None
     try:
         await server.serve()

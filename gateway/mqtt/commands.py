@@ -21,7 +21,7 @@ from typing import Any, Protocol
 
 from gateway.errors import GatewayError
 from gateway.mqtt.sparkplug import Value
-from gateway.service.axis_types import StopMode
+from gateway.service.operations.terms import StopMode
 from gateway.service.roles import Role
 from gateway.service.topology import ControllerRef
 

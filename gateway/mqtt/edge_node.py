@@ -29,14 +29,13 @@ import ssl
 
 import aiomqtt
 
-from gateway.bus.events import BusEvent, TransactionDone
-from gateway.bus.state_types import Change
 from gateway.mqtt.commands import DeviceCommands
 from gateway.mqtt.metric_table import MetricTable, Values, axis_label, changed, device_id, millis
 from gateway.mqtt.sparkplug import Message, Metric, Value, decode_commands, encode, topic
 from gateway.service.config import MqttSettings
 from gateway.service.events import EventKind, ServiceEvent
-from gateway.service.gateway import Gateway
+from gateway.service.runtime.bus_types import BusEvent, Change, TransactionDone
+from gateway.service.runtime.runtime import Runtime
 
 __all__ = ["EdgeNode"]
 
@@ -50,7 +49,7 @@ class EdgeNode:
     """One gateway as a Sparkplug B edge node; ``await run()`` until cancelled."""
 
     def __init__(
-        self, gateway: Gateway, settings: MqttSettings, *, commands: DeviceCommands | None = None
+        self, gateway: Runtime, settings: MqttSettings, *, commands: DeviceCommands | None = None
     ) -> None:
         self.gateway, self.settings = gateway, settings
         self.commands = commands if settings.commands else None

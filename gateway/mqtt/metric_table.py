@@ -28,9 +28,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 from gateway import __version__
-from gateway.bus.state import StateCache
-from gateway.bus.state_types import AxisState, ErrorKind
 from gateway.mqtt.sparkplug import DataType, Metric, Value
+from gateway.service.runtime.bus_types import AxisState, ErrorKind, StateCache
 from gateway.service.topology import AxisRef, ControllerRef, Topology
 
 __all__ = ["AXIS_ERROR_KINDS", "CONTROLLER_ERROR_KINDS", "MetricTable", "device_id", "millis"]

@@ -3,6 +3,7 @@
 Nothing here does I/O or imports asyncio; the simulator and the gateway both stand on it.
 """
 
+from gateway.protocol import commands
 from gateway.protocol.framing import (
     Framing,
     Series,
@@ -39,6 +40,7 @@ __all__ = [
     "Statement",
     "checksum",
     "command_union",
+    "commands",
     "decode_reply",
     "encode_command",
     "encode_reply",

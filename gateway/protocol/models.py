@@ -29,8 +29,9 @@ from pydantic import (
 )
 
 from gateway.errors import GatewayError
-from gateway.protocol.params import Jump, Label, Param, Position, PositionFormat, Text
+from gateway.protocol.params import Param, Position, PositionFormat
 from gateway.protocol.spec import CommandSpec, Form, ReplyFormat
+from gateway.protocol.text_params import Jump, Label, Text
 
 __all__ = ["Command", "build_model", "form_key", "model_name"]
 

@@ -27,8 +27,9 @@ from types import MappingProxyType
 
 from gateway.errors import InvalidInputError, ProgramError
 from gateway.protocol.models import Command
-from gateway.protocol.params import Jump, PositionFormat, jump_count
+from gateway.protocol.params import PositionFormat
 from gateway.protocol.registry import parse_statement
+from gateway.protocol.text_params import Jump, jump_count
 
 __all__ = [
     "CAPACITY_BYTES",

@@ -158,6 +158,28 @@ class Registry:
                 f"no command form {key!r} in the manual", field="command"
             ) from None
 
+    def form(self, key: str) -> Form:
+        """The form with this key, without building its model."""
+        try:
+            return self._by_key[key].form
+        except KeyError:
+            raise UnknownCommandError(
+                f"no command form {key!r} in the manual", field="command"
+            ) from None
+
+    def build(
+        self, key: str, values: dict[str, object], positions: PositionFormat | None = None
+    ) -> Command:
+        """The model of form ``key`` with parameter ``values``; ParameterError naming the
+        field and its rule when one is broken (what ``parse`` raises for the same text)."""
+        try:
+            entry = self._by_key[key]
+        except KeyError:
+            raise UnknownCommandError(
+                f"no command form {key!r} in the manual", field="command"
+            ) from None
+        return self._build(entry, values, positions)
+
     def matches(self, text: str, context: Context = Context.HOST) -> list[Entry]:
         """Forms of ``context`` whose strict pattern fits ``text`` (one in a sound catalog)."""
         return [e for e in self._entries if e.usable_in(context) and e.strict.fullmatch(text)]

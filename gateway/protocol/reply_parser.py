@@ -44,16 +44,22 @@ Ambiguous in the manual, decided in ``docs/manual-notes.md`` ("Framing and the r
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from enum import Enum, StrEnum, auto
+from enum import Enum, auto
 
-from gateway.protocol.framing import (
-    BODY_NUMBERS,
-    POWER_ON,
-    Framing,
-    Series,
-    checksum,
-    from_wire,
+from gateway.protocol.framing import BODY_NUMBERS, POWER_ON, Framing, Series, checksum, from_wire
+from gateway.protocol.reply_events import (
+    Accepted,
+    ChecksumMismatch,
+    CommandRejected,
+    DataReply,
+    Expectation,
+    Garbled,
+    NotAccepted,
+    ReplyEvent,
+    Unsolicited,
+    UnsolicitedKind,
+    device_report,
+    program_output,
 )
 
 __all__ = [
@@ -77,81 +83,6 @@ MAX_LINE = 4608
 _CR, _GT, _QUESTION, _AT, _DOLLAR, _HASH = b"\r>?@$#"
 _MARKS = frozenset(b"$#")
 _STARTS = frozenset(b">?@$#")
-
-
-class UnsolicitedKind(StrEnum):
-    """What an unsolicited message is (§10 AW/DW/IW/EE///, §10 T, §11-3, §12)."""
-
-    EEPROM_DONE = "eeprom_done"  # '$B#*' CR: the EEPROM write or erase has finished
-    TIMER_UP = "timer_up"  # '$B#T' CR: the timer of T{time} ran out
-    PROGRAM_OUTPUT = "program_output"  # a user program's query output, /CO, /CC, or '@'
-
-
-@dataclass(frozen=True, kw_only=True)
-class ReplyEvent:
-    """Base of the parser's events."""
-
-    raw: bytes
-    #: True when the event answers the pending command; it then ends the expectation
-    is_reply: bool = False
-
-
-@dataclass(frozen=True, kw_only=True)
-class Accepted(ReplyEvent):
-    """'>' (or '>' CR, '>3E' CR, the bare echo): the command was received, not "it was valid"."""
-
-
-@dataclass(frozen=True, kw_only=True)
-class CommandRejected(ReplyEvent):
-    """'>@' (ER1): the command caused a command error."""
-
-
-@dataclass(frozen=True, kw_only=True)
-class NotAccepted(ReplyEvent):
-    """'?': communication abnormality, or a command checksum the device found wrong."""
-
-
-@dataclass(frozen=True, kw_only=True)
-class DataReply(ReplyEvent):
-    """A query reply; ``data`` is the text between mark B# and CR, checksum removed."""
-
-    body: str
-    data: str
-
-
-@dataclass(frozen=True, kw_only=True)
-class ChecksumMismatch(ReplyEvent):
-    """A CR-terminated message whose checksum is wrong: its content is not trustworthy."""
-
-
-@dataclass(frozen=True, kw_only=True)
-class Unsolicited(ReplyEvent):
-    """A message no command asked for; ``series``/``body`` are None for '>text' and '@'."""
-
-    kind: UnsolicitedKind
-    series: Series | None
-    body: str | None
-    data: str  # the text after mark B# (or after '>' for /CO), checksum removed
-
-
-@dataclass(frozen=True, kw_only=True)
-class Garbled(ReplyEvent):
-    """Bytes that fit no rule, a message cut short, or an echo that differs from the command."""
-
-
-@dataclass(frozen=True)
-class Expectation:
-    """The reply the parser waits for."""
-
-    body: str
-    sent: bytes
-    has_data: bool
-    framing: Framing
-    series: Series
-
-    def is_from(self, series: Series, body: str) -> bool:
-        """Whether a message of ``series`` and ``body`` comes from the addressed controller."""
-        return series is self.series and body == self.body
 
 
 class _State(Enum):
@@ -333,7 +264,7 @@ class ReplyParser:
             # '?' comes alone, also with EE1: the device did not take the frame as a command.
             self._emit(out, NotAccepted(raw=b"?", is_reply=exp is not None))
         elif byte == _AT:
-            self._emit(out, _program_output(b"@", None, None, "@"))
+            self._emit(out, program_output(b"@", None, None, "@"))
         elif byte in _MARKS:
             self._start(_State.LINE, byte)
         else:
@@ -430,7 +361,7 @@ class ReplyParser:
         elif content == b">@":
             self._emit(out, CommandRejected(raw=line, is_reply=answers))
         elif content[1] not in _MARKS:
-            self._emit(out, _program_output(line, None, None, from_wire(content[1:])))
+            self._emit(out, program_output(line, None, None, from_wire(content[1:])))
         elif len(content) < 3:
             self._emit(out, Garbled(raw=line))  # '>$' CR: no body number
         else:
@@ -438,7 +369,7 @@ class ReplyParser:
             if answers and exp is not None and exp.has_data and exp.is_from(series, body):
                 self._emit(out, DataReply(raw=line, is_reply=True, body=body, data=from_wire(data)))
             else:
-                self._emit(out, _program_output(line, series, body, from_wire(data)))
+                self._emit(out, program_output(line, series, body, from_wire(data)))
 
     def _finish_marked(self, content: bytes, line: bytes, out: list[ReplyEvent]) -> None:
         exp = self._exp
@@ -454,10 +385,7 @@ class ReplyParser:
             else:
                 self._emit(out, Accepted(raw=line, is_reply=True))
         elif rest in (b"*", b"T"):
-            kind = UnsolicitedKind.EEPROM_DONE if rest == b"*" else UnsolicitedKind.TIMER_UP
-            self._emit(
-                out, Unsolicited(raw=line, kind=kind, series=series, body=body, data=rest.decode())
-            )
+            self._emit(out, device_report(line, series, body, rest))
         elif echoing and exp is not None and exp.is_from(series, body):
             if self._echo is None:
                 self._emit(out, Garbled(raw=line, is_reply=True))  # the echo came back changed
@@ -467,10 +395,4 @@ class ReplyParser:
                     out, DataReply(raw=echo + line, is_reply=True, body=body, data=from_wire(rest))
                 )
         else:
-            self._emit(out, _program_output(line, series, body, from_wire(rest)))
-
-
-def _program_output(raw: bytes, series: Series | None, body: str | None, data: str) -> Unsolicited:
-    return Unsolicited(
-        raw=raw, kind=UnsolicitedKind.PROGRAM_OUTPUT, series=series, body=body, data=data
-    )
+            self._emit(out, program_output(line, series, body, from_wire(rest)))

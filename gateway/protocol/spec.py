@@ -126,6 +126,15 @@ class Form:
     modes: frozenset[int] | None = None
     #: None = derived from ``effect``; set only where the manual says otherwise
     idempotent_override: bool | None = None
+    #: the form changes how the following frames are written or answered (§10 EE, EL, ER,
+    #: SUM set forms): encoder, parser and simulator switch framing after its reply
+    switches_framing: bool = False
+    #: the form reads the current position counter (§10 6), the one a move changes
+    reads_position: bool = False
+    #: the form stops motion at once or ends a program with its motion (§10 S, SS, GES):
+    #: it outranks everything queued (DESIGN invariant 8). GE and GS also have effect STOP
+    #: (harmless to resend) but let the motion of a running program go on, so they do not.
+    is_stop: bool = False
 
     def __post_init__(self) -> None:
         names = _PLACEHOLDER.findall(self.syntax)

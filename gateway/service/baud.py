@@ -37,16 +37,16 @@ from gateway.bus.events import BusEvent, LinkUp
 from gateway.bus.requests import BusError, Outcome
 from gateway.bus.scheduler import LinkState, LoopScheduler
 from gateway.errors import ConflictError, DeviceError, InvalidInputError
+from gateway.protocol import commands as cmd
 from gateway.protocol.framing import BAUD_RATES
-from gateway.protocol.registry import parse
 from gateway.protocol.reply_values import ProgramState
-from gateway.service.gateway import Gateway
+from gateway.service.runtime.runtime import Runtime
 from gateway.service.topology import ControllerRef
 
 __all__ = ["BAUD_CODES", "BaudChange", "BaudChanger", "ControllerBaud"]
 
 #: ``ES{bp}``'s code of each rate (§10 ES).
-BAUD_CODES = {9600: 0, 1200: 1, 300: 2}
+BAUD_CODES: dict[int, cmd.BaudCode] = {9600: 0, 1200: 1, 300: 2}
 #: Real seconds the loop may take to come up again after the port reopened.
 REOPEN_TIMEOUT = 10.0
 
@@ -84,7 +84,7 @@ class BaudChange(BaseModel):
 class BaudChanger:
     """Moves the controllers of a loop and the gateway's port to another rate."""
 
-    def __init__(self, gateway: Gateway) -> None:
+    def __init__(self, gateway: Runtime) -> None:
         self.gateway = gateway
         self._busy: set[str] = set()
 
@@ -228,7 +228,7 @@ class BaudChanger:
     async def _send_es(
         self, scheduler: LoopScheduler, ref: ControllerRef, baud: int, frames: dict[str, list[str]]
     ) -> None:
-        command = parse(f"ES{BAUD_CODES[baud]}")
+        command = cmd.set_baud_rate(BAUD_CODES[baud])
         frames[ref.id].append(f"{ref.series.value}{ref.body}{command.wire()}")
         with contextlib.suppress(BusError):  # whether it took is what the next read tells
             result = await scheduler.submit(ref.body, command)
@@ -257,7 +257,7 @@ class BaudChanger:
         if scheduler.state is not LinkState.UP:
             return False
         try:
-            result = await scheduler.submit(ref.body, parse(""))
+            result = await scheduler.submit(ref.body, cmd.status())
         except (BusError, DeviceError):
             return False
         return result.ok

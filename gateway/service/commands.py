@@ -28,13 +28,13 @@ from typing import Protocol
 
 from gateway.bus.requests import Outcome, ReplyKind, TransactionResult
 from gateway.errors import ConflictError, DeviceError, InvalidInputError
+from gateway.protocol import commands as cmd
 from gateway.protocol.models import Command
-from gateway.protocol.registry import parse
 from gateway.protocol.reply_values import ProgramState
 from gateway.protocol.spec import Effect
-from gateway.service.gateway import Gateway
+from gateway.service.axes.soft_limits import SoftLimits
 from gateway.service.roles import Role
-from gateway.service.soft_limits import SoftLimits
+from gateway.service.runtime.runtime import Runtime
 from gateway.service.topology import ControllerRef
 
 __all__ = [
@@ -46,11 +46,12 @@ __all__ = [
     "required_role",
 ]
 
-#: Mnemonics whose non-query forms need the admin role (issue 5: admin = raw, EEPROM,
-#: programs, mode, framing). EEPROM: AW, DW, IW write it, EE/// erases it, AL, DL, IL load it
-#: over RAM, ES writes the baud rate to it at once (§10 ES); mode: E, and EP / ED which change
-#: how positions are counted and pulses are output (§10 EP, ED); framing: EE, EL, ER, SUM
-#: (§10); programs: I (upload) and GA (GAS/GAR write the EEPROM at once, §10 GA).
+#: Mnemonics whose non-query forms need the admin role: what outlives the request or changes
+#: how the line talks (raw, EEPROM, programs, mode, framing). EEPROM: AW, DW, IW write it,
+#: EE/// erases it, AL, DL, IL load it over RAM, ES writes the baud rate to it at once
+#: (§10 ES); mode: E, and EP / ED which change how positions are counted and pulses are
+#: output (§10 EP, ED); framing: EE, EL, ER, SUM (§10); programs: I (upload) and GA
+#: (GAS/GAR write the EEPROM at once, §10 GA).
 ADMIN_MNEMONICS = frozenset(
     {"AW", "DW", "IW", "EE///", "AL", "DL", "IL", "ES", "E", "EP", "ED", "EE", "EL", "ER", "SUM",
      "I", "GA"}
@@ -64,19 +65,19 @@ ROLE_RULE = (
 
 #: Forms never sent through /commands or /raw, and why.
 _REFUSED = {
-    "I": "I opens program reception: the controller would take the next command as program "
-    "text; upload programs with PUT /controllers/{id}/program (§10 I)",
+    cmd.OPEN_PROGRAM: "I opens program reception: the controller would take the next command "
+    "as program text; upload programs with PUT /controllers/{id}/program (§10 I)",
     # ES moves one controller to another rate: the gateway would lose it (and with a rate
     # other than the loop's, the whole loop hears noise from it). A loop's rate changes as a
     # whole: every controller, then the port (POST /loops/{loop}/baud, gateway.service.baud).
-    "ES{bp}": "the baud rate of a loop is its configuration (loops[].baud), changed for every "
-    "controller and the port at once with POST /loops/{loop}/baud: changing one controller's "
-    "rate alone would cut it off the loop (§10 ES)",
+    cmd.SET_BAUD_RATE: "the baud rate of a loop is its configuration (loops[].baud), changed "
+    "for every controller and the port at once with POST /loops/{loop}/baud: changing one "
+    "controller's rate alone would cut it off the loop (§10 ES)",
 }
 
 
 #: The mode as the condition bits show it: clears nothing, allowed while moving (§10 9 form II).
-_MODE_READ = parse("94")
+_MODE_READ = cmd.condition_bit(4)
 
 
 def required_role(command: Command) -> Role:
@@ -101,7 +102,7 @@ def _changes_something(command: Command) -> bool:
 class CommandRunner:
     """Checks and sends commands to controllers of ``gateway``."""
 
-    def __init__(self, gateway: Gateway, leases: LeaseCheck) -> None:
+    def __init__(self, gateway: Runtime, leases: LeaseCheck) -> None:
         self.gateway = gateway
         self.leases = leases
         self.limits = SoftLimits(gateway)
@@ -110,7 +111,7 @@ class CommandRunner:
 
     def refuse_unsendable(self, command: Command, field: str = "command") -> None:
         """422 for the forms the API never sends on a client's behalf (``I``)."""
-        reason = _REFUSED.get(command.key)
+        reason = _REFUSED.get(command.form)
         if reason is not None:
             raise InvalidInputError(f"{command.wire()!r}: {reason}", field=field, rule=reason)
 
@@ -180,7 +181,7 @@ class CommandRunner:
         self.check_state(ref, cmds)
         guarded = await self.limits.guard(ref, cmds, motor, field)
         result = await self.send(ref, guarded.commands, motor=guarded.motor)
-        if any(c.key in ("E{mode}", "DL") for c in cmds):
+        if any(c.form in (cmd.SET_MODE, cmd.LOAD_SETTINGS) for c in cmds):
             # The cache learns the mode from reads only (the poller reads it once, at first
             # contact): read it back after E or a DL (which loads E from the EEPROM, §10 DL)
             # so that the mode checks above see the new one (§10 9 bits 5,4).

@@ -1,4 +1,4 @@
-"""The gateway's configuration: a TOML file read into pydantic models (issue 5).
+"""The gateway's configuration: a TOML file read into pydantic models.
 
 One file describes a cell: its loops (port URL, baud, time-outs, poll periods, SUM at
 connect), the controllers on each (body number, name) and their axes (name, user units, soft
@@ -14,9 +14,10 @@ e.g. ``RC233_AUDIT_LOG``.
 
 from __future__ import annotations
 
+import dataclasses
 import tomllib
 from pathlib import Path
-from typing import Annotated, Literal, Self
+from typing import Annotated, Any, Literal, Self
 
 from pydantic import (
     BaseModel,
@@ -28,6 +29,8 @@ from pydantic import (
 )
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
+from gateway.bus.config import LoopConfig
+from gateway.bus.poll_plan import PollConfig
 from gateway.errors import GatewayError
 from gateway.protocol.framing import BAUD_RATES, BODY_NUMBERS
 from gateway.service.roles import Role
@@ -111,24 +114,31 @@ class ControllerSettings(_Strict):
         return self
 
 
-class TimeoutSettings(_Strict):
-    """The scheduler's timing and retry knobs (gateway/bus/config.py ``LoopConfig``)."""
+def _default(config: type[Any], name: str) -> Any:
+    """The default of field ``name`` of the bus's dataclass ``config``: defined there once."""
+    return next(f.default for f in dataclasses.fields(config) if f.name == name)
 
-    turnaround: float = Field(0.010, ge=0, le=1)
-    host_latency: float = Field(0.020, ge=0, le=5)
-    nak_retries: int = Field(3, ge=0, le=10)
-    resend_retries: int = Field(2, ge=0, le=10)
-    timeouts_to_down: int = Field(8, ge=1, le=100)
-    eeprom_write_hold: float = Field(5.0, gt=0, le=60)
+
+class TimeoutSettings(_Strict):
+    """The scheduler's timing and retry knobs: the fields of ``gateway.bus.config.LoopConfig``
+    of the same names, with its defaults; the file may set them within these bounds."""
+
+    turnaround: float = Field(_default(LoopConfig, "turnaround"), ge=0, le=1)
+    host_latency: float = Field(_default(LoopConfig, "host_latency"), ge=0, le=5)
+    nak_retries: int = Field(_default(LoopConfig, "nak_retries"), ge=0, le=10)
+    resend_retries: int = Field(_default(LoopConfig, "resend_retries"), ge=0, le=10)
+    timeouts_to_down: int = Field(_default(LoopConfig, "timeouts_to_down"), ge=1, le=100)
+    eeprom_write_hold: float = Field(_default(LoopConfig, "eeprom_write_hold"), gt=0, le=60)
 
 
 class PollSettings(_Strict):
-    """Poll periods in seconds (gateway/bus/poll_plan.py ``PollConfig``)."""
+    """Poll periods in seconds: the fields of ``gateway.bus.poll_plan.PollConfig`` of the same
+    names, with its defaults; the file may set them within these bounds."""
 
-    moving_period: float = Field(0.050, gt=0, le=10)
-    idle_period: float = Field(1.0, gt=0, le=600)
-    sensor_period: float = Field(5.0, gt=0, le=3600)
-    condition_period: float = Field(10.0, gt=0, le=3600)
+    moving_period: float = Field(_default(PollConfig, "moving_period"), gt=0, le=10)
+    idle_period: float = Field(_default(PollConfig, "idle_period"), gt=0, le=600)
+    sensor_period: float = Field(_default(PollConfig, "sensor_period"), gt=0, le=3600)
+    condition_period: float = Field(_default(PollConfig, "condition_period"), gt=0, le=3600)
 
 
 class LoopSettings(_Strict):

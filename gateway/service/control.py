@@ -5,7 +5,7 @@ A technician at a machine locks out remote motion by putting its controller in `
 * an admin does it through the API, for one controller or for every controller of a loop
   (``PUT /controllers/{id}/control``, ``PUT /loops/{loop}/control``);
 * or a key switch wired to a general input of the controller does it (``local_input`` in the
-  configuration, read with ``C`` by ``gateway.service.key_switch``).
+  configuration, read with ``C`` by ``gateway.service.runtime.key_switch``).
 
 A controller is ``local`` while any of these holds (its ``sources`` say which, by whom and
 since when); ``remote`` when none does. A configured key switch not read yet counts as local:

@@ -1,4 +1,5 @@
-"""Control leases: one client holds an axis or a controller for a while (issue 5).
+"""Control leases: one client holds an axis or a controller for a while, so that two clients
+do not steer one machine at once.
 
 While a lease is held, other clients' motion and setting requests on that resource are refused
 with 409 naming the holder and the expiry; **stops are never refused** (they never ask). A

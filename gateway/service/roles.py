@@ -1,4 +1,5 @@
-"""Who may do what: the three roles of issue 5, each allowing everything of the ones below."""
+"""Who may do what: three roles (viewer, operator, admin), each allowing everything of the ones
+below, so that a token given to a dashboard cannot move a machine."""
 
 from __future__ import annotations
 

@@ -21,9 +21,9 @@ from typing import Protocol
 from pydantic import BaseModel, Field
 
 from gateway.bus.requests import BusError, LoopDown, Outcome
-from gateway.service.axis_types import StopMode
-from gateway.service.gateway import Gateway
-from gateway.service.operation_types import Operation, frames_of
+from gateway.service.operations.terms import StopMode
+from gateway.service.operations.types import Operation, frames_of
+from gateway.service.runtime.runtime import Runtime
 from gateway.service.topology import ControllerRef
 
 __all__ = ["ControllerStop", "LoopStop", "StopAll"]
@@ -65,7 +65,7 @@ class LoopStop(BaseModel):
 class StopAll:
     """Stops of whole controllers and loops of ``gateway``."""
 
-    def __init__(self, gateway: Gateway, operations: StopNotes) -> None:
+    def __init__(self, gateway: Runtime, operations: StopNotes) -> None:
         self.gateway = gateway
         self.operations = operations
 

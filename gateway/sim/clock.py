@@ -6,8 +6,9 @@ The simulator's logic never reads a clock; it takes ``now`` as an argument. Only
 (``loop.SimLoop``) asks a ``SimClock`` what time it is when a host byte or a control request
 arrives, and its ``Scheduler`` turns simulated deadlines into real delays for one asyncio
 timer. One scale speeds up everything at once: wire times, motion, timers and EEPROM writes
-(issue 3, ``--time-scale``). ``LineLog`` keeps what passed on the line, stamped with
-simulated time, for tests and the control surface's ``trace``.
+(``--time-scale``), so tests run fast and benchmarks at real character timing. ``LineLog``
+keeps what passed on the line, stamped with simulated time, for tests and the control
+surface's ``trace``.
 """
 
 from __future__ import annotations

@@ -7,10 +7,8 @@ ignores with the command-error flag (§9-1 注意). The order of the checks, all
 1. powered off, or busy erasing the EEPROM (``EE///``, §10 EE///): silence;
 2. SUM1 and a bad checksum: ``?`` (§10 SUM);
 3. text that fits no form, or a bad parameter: ignored, command error (§9-1 注意);
-4. a host command refused while a user program runs (§11-3 5.), a form not usable in the mode
-   (§10 E, the E0/E1/E2 columns), a form not usable while a motor moves (the 動作中 column;
-   every motion command, because the two motors never move together, §2, §3-II): ignored,
-   command error;
+4. a rule of ``rules.check_rules`` broken (a user program runs, the mode, a motor moves):
+   ignored, command error;
 5. the form's handler (``dispatch.HANDLERS``), which may refuse in turn (out-of-rule settings).
 
 Time is simulated seconds passed in by the caller (``now``); the controller never reads a clock.
@@ -21,15 +19,14 @@ happened meanwhile (limit or EMS stops, homing completions) is latched into the 
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 from typing import Any
 
 from gateway.errors import InvalidInputError
+from gateway.protocol.command_reader import CommandFrame, RawText
 from gateway.protocol.framing import (
     EEPROM_DONE,
-    CommandFrame,
     Framing,
-    RawText,
     Series,
     encode_ack,
     encode_data,
@@ -42,14 +39,15 @@ from gateway.protocol.params import PositionFormat
 from gateway.protocol.registry import parse
 from gateway.protocol.replies import encode_reply, wrap_position
 from gateway.protocol.reply_values import Contact, Version
-from gateway.protocol.spec import Effect
 from gateway.sim import commands, error_output, stepout  # noqa: F401  (commands: handlers)
 from gateway.sim.axis import Axis, AxisEventKind
 from gateway.sim.commands.program import start_program
-from gateway.sim.dispatch import FRAMING_KEYS, HANDLERS, Refused
+from gateway.sim.dispatch import HANDLERS, Refused
 from gateway.sim.eeprom import Eeprom
 from gateway.sim.flags import Error, Flags
+from gateway.sim.line_out import SILENT, Later, PowerOn, Response
 from gateway.sim.memory import POSITION_TABLE_SIZE, Baud, Settings
+from gateway.sim.rules import check_rules
 from gateway.sim.runtime import Runtime
 from gateway.sim.scene import AxisScene
 
@@ -57,46 +55,6 @@ __all__ = ["Controller", "Later", "Response"]
 
 #: The ROM the simulator claims to be: 1.20 has every feature of the manual (ER 1.19, 0X 1.20).
 VERSION = Version("1.20", "07-04-01")
-
-#: Forms the catalog keeps the gateway from sending while moving, which the device still takes:
-#: §10 2 注意点, form II while moving stores the start point of the move (manual-notes.md,
-#: "While moving: the △ rows").
-_TAKEN_WHILE_MOVING = frozenset({"2"})
-
-
-@dataclass(frozen=True)
-class Later:
-    """A message the controller sends by itself at simulated time ``at`` ($B#*, $B#T, ...).
-
-    ``still`` (when given) is asked at that time: False means the message was called off
-    (a timer rewritten by GWT or restarted, a power cycle).
-    """
-
-    at: float
-    data: bytes
-    still: Callable[[], bool] | None = None
-
-    def wanted(self) -> bool:
-        """True when the message is still to be sent."""
-        return self.still is None or self.still()
-
-
-@dataclass(frozen=True)
-class Response:
-    """What the controller puts on the line for one frame: now, and later."""
-
-    reply: bytes
-    later: tuple[Later, ...] = ()
-
-
-SILENT = Response(b"")
-
-
-@dataclass
-class _Power:
-    on: bool = True
-    busy_until: float = float("-inf")  # EE/// erase in progress
-    later: list[Later] = field(default_factory=list)
 
 
 class Controller:
@@ -117,7 +75,7 @@ class Controller:
         self.version = version
         self.eeprom = eeprom if eeprom is not None else Eeprom()
         self._scenes = dict(scene) if scene else {1: AxisScene(), 2: AxisScene()}
-        self._power = _Power()
+        self._power = PowerOn()
         self.ems_pressed = False
         self._boot(now)
 
@@ -156,7 +114,7 @@ class Controller:
 
     def power_cycle(self, now: float) -> Response:
         """Switch off and on again: RAM lost, EEPROM kept; an erase in progress is lost too."""
-        self._power = _Power()
+        self._power = PowerOn()
         self._boot(now)
         return SILENT
 
@@ -219,8 +177,8 @@ class Controller:
             self.flags.raise_(Error.COMMAND)
             return self._reply_ack(False, event.raw)
         try:
-            self._check_rules(command, now)
-            if command.key in FRAMING_KEYS:
+            check_rules(self, command, now)
+            if command.form.switches_framing:
                 return self._switch_framing(command, event.raw)
             value = HANDLERS[command.key](self, command, now)
         except Refused:
@@ -248,22 +206,11 @@ class Controller:
         self.settings.shared.framing = switch.after
         return Response(encode_ack(switch.reply, sent=sent))
 
-    def _check_rules(self, command: Command, now: float, *, host: bool = True) -> None:
-        spec, form = command.spec, command.form
-        if host and not spec.while_program and self.rt.program_running:
-            raise Refused("not usable while a user program runs (§11-3 5.)")
-        if self.settings.shared.mode not in spec.form_modes(form):
-            raise Refused(f"not usable in mode {self.settings.shared.mode} (§10 E)")
-        restricted = form.effect is Effect.MOTION or not spec.form_while_moving(form)
-        moving = self.moving_motor(now) is not None
-        if restricted and moving and command.key not in _TAKEN_WHILE_MOVING:
-            raise Refused("not usable while a motor moves (§2, §9-1 注意)")
-
     # ------------------------------------------------------------------ the user program
 
     def program_rules(self, command: Command, now: float) -> None:
         """``Refused`` when a program statement breaks the mode or while-moving rules."""
-        self._check_rules(command, now, host=False)
+        check_rules(self, command, now, host=False)
 
     def run_program(self, now: float) -> None:
         """Let the user program do what it has to do up to ``now`` (chapters 11-12)."""

@@ -15,13 +15,9 @@ from typing import TYPE_CHECKING, Any, TypeVar
 from gateway.protocol.registry import REGISTRY
 
 if TYPE_CHECKING:
-    from gateway.sim.controller import Controller
+    from gateway.sim.controller_view import ControllerView
 
-__all__ = ["FRAMING_KEYS", "HANDLERS", "Handler", "Refused", "handles", "missing_handlers"]
-
-#: The framing switches change the framing of their own reply (§10 EL) or of the next one
-#: (§10 EE, ER, SUM): the controller applies them itself, around the reply.
-FRAMING_KEYS = frozenset({"EE1", "EE0", "EL1", "EL0", "ER1", "ER0", "SUM1", "SUM0"})
+__all__ = ["HANDLERS", "Handler", "Refused", "handles", "missing_handlers"]
 
 
 class Refused(Exception):
@@ -32,7 +28,7 @@ class Refused(Exception):
         self.reason = reason
 
 
-Handler = Callable[["Controller", Any, float], object]
+Handler = Callable[["ControllerView", Any, float], object]
 HANDLERS: dict[str, Handler] = {}
 
 _H = TypeVar("_H", bound=Handler)
@@ -61,5 +57,7 @@ def missing_handlers() -> list[str]:
         for entry in REGISTRY.entries
         if not entry.spec.program_only
         and entry.key not in HANDLERS
-        and entry.key not in FRAMING_KEYS
+        # the framing switches change the framing of their own reply (§10 EL) or of the
+        # next one (§10 EE, ER, SUM): the controller applies them itself, around the reply
+        and not entry.form.switches_framing
     ]

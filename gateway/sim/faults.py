@@ -1,4 +1,5 @@
-"""Faults the simulated line can inject: per-reply line faults and device events (issue 3).
+"""Faults the simulated line can inject: per-reply line faults and device events, so that
+the gateway is tested against the line a factory really has.
 
 A ``FaultRule`` names a fault, the controllers it hits (``body``; None = all) and when: with a
 ``probability`` per command frame the controller answers, and/or as ``shots`` one-shots that

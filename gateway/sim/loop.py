@@ -31,7 +31,8 @@ from __future__ import annotations
 from collections.abc import Callable, Iterable
 from typing import Any
 
-from gateway.protocol.framing import CommandEvent, CommandFrame, CommandReader, RawText, Series
+from gateway.protocol.command_reader import CommandEvent, CommandFrame, CommandReader, RawText
+from gateway.protocol.framing import Series
 from gateway.sim.clock import RecordKind, SimClock
 from gateway.sim.faults import Draw, FaultKind, FaultRule, Faults, garble
 from gateway.sim.line import HostLink, Line, LineBusy

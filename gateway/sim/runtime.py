@@ -9,14 +9,40 @@ them.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import Any, Protocol
 
 from gateway.protocol.reply_values import ClrState, ProgramState
 
-if TYPE_CHECKING:
-    from gateway.sim.program.machine import Machine
+__all__ = ["ProgramRun", "Runtime", "Timer"]
 
-__all__ = ["Runtime", "Timer"]
+
+class ProgramRun(Protocol):
+    """A started user program as the controller and the host commands drive it
+    (``gateway.sim.program.Machine``).
+
+    ``ctl`` is the controller (``sim.controller_view.ControllerView``); typed Any here because
+    the controller view holds this runtime: naming it would make the two import each other.
+    """
+
+    def run(self, ctl: Any, now: float) -> None:
+        """Do what the program has to do up to ``now``."""
+        ...
+
+    def next_time(self, ctl: Any) -> float | None:
+        """When the program next acts by itself (None: it waits for the outside)."""
+        ...
+
+    def nudge(self, now: float) -> None:
+        """Something outside changed: a program polling in a loop looks again."""
+        ...
+
+    def resume(self, now: float) -> None:
+        """Go on after a pause (GC)."""
+        ...
+
+    def end(self, ctl: Any) -> None:
+        """End the program (GE, GES)."""
+        ...
 
 
 @dataclass
@@ -46,7 +72,7 @@ class Runtime:
     awaiting_program: bool = False  # between the '>' of I and the CR of the program text
     program_state: ProgramState = ProgramState.ENDED
     step: int = 0  # GN: the next statement's position, counted in '/' (§10 GN)
-    machine: Machine | None = None  # the last program G (or GA) started
+    machine: ProgramRun | None = None  # the last program G (or GA) started
     inputs: int = 0  # general inputs 7-0 (C)
     inp: tuple[bool, bool] = (False, False)  # INP1, INP2 (C8, C9, CA, CI)
     outputs: int = 0  # general outputs 7-0 (D, CO)

@@ -17,7 +17,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
-from gateway.protocol.framing import CommandFrame, Framing, RawText, Series
+from gateway.protocol.command_reader import CommandFrame, RawText
+from gateway.protocol.framing import Framing, Series
 from gateway.sim.clock import RecordKind
 from gateway.sim.faults import Draw
 from gateway.sim.memory import Baud
@@ -39,7 +40,7 @@ INSPECTION_BAUD = 9600
 
 
 class LaterLike(Protocol):
-    """An unsolicited message (``controller.Later``)."""
+    """An unsolicited message (``line_out.Later``)."""
 
     @property
     def at(self) -> float:
@@ -54,7 +55,7 @@ class LaterLike(Protocol):
 
 
 class ResponseLike(Protocol):
-    """What a controller answers to a frame (``controller.Response``)."""
+    """What a controller answers to a frame (``line_out.Response``)."""
 
     @property
     def reply(self) -> bytes:

@@ -1,4 +1,4 @@
-"""The serial lines the loop scheduler talks through (issue 4, "Transport").
+"""The serial lines the loop scheduler talks through.
 
 ``open_transport(url, baud)`` turns configuration into a ``Transport``: a ``SerialLine`` for a
 device path, ``socket://`` or ``rfc2217://``. ``PipeTransport`` is an in-process line to a peer

@@ -1,1 +1,1 @@
-"""Tests of the REST and WebSocket API (issue 5)."""
+"""Tests of the REST and WebSocket API."""

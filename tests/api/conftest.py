@@ -33,7 +33,7 @@ from gateway.protocol.registry import parse
 from gateway.service.config import WsSettings
 from gateway.service.events import ServiceEvents
 from gateway.service.feed import Feed
-from gateway.service.simulated import simulated_config
+from gateway.service.runtime.simulated import simulated_config
 from gateway.service.topology import Topology
 
 VIEWER_TOKEN = "viewer-token-for-tests"

@@ -28,11 +28,11 @@ from gateway.bus.state_types import ControllerState
 from gateway.cli.serve import sim_line
 from gateway.service.config import GatewayConfig
 from gateway.service.events import ServiceEvent
-from gateway.service.gateway import Gateway
 from gateway.service.leases import Leases
-from gateway.service.operations import Operations
+from gateway.service.operations.registry import Operations
 from gateway.service.roles import Role
-from gateway.service.simulated import SIM_LOOP, simulated_config
+from gateway.service.runtime.runtime import Runtime
+from gateway.service.runtime.simulated import SIM_LOOP, simulated_config
 from gateway.sim.cli import build_loop
 from gateway.sim.clock import RecordKind, SimClock
 from gateway.sim.loop import SimLoop
@@ -70,7 +70,7 @@ class Api:
     """A running app, its gateway, the simulated loop behind it and a client."""
 
     app: FastAPI
-    gateway: Gateway
+    gateway: Runtime
     sim: SimLoop
     client: httpx.AsyncClient
     events: list[ServiceEvent]
@@ -161,7 +161,7 @@ async def running_app(
     # The in-process line of ``serve --simulate``: a port reopened at another rate (POST
     # /loops/{loop}/baud) sets the simulated line's, and controllers at another rate hear noise.
     line = sim_line(sim)
-    gateway = Gateway(config, transports={SIM_LOOP: line}, time_scale=scale)
+    gateway = Runtime(config, transports={SIM_LOOP: line}, time_scale=scale)
     if roles:
         book = TokenBook(TokenEntry(n, role, hash_token(t)) for n, (t, role) in TOKENS.items())
         app = create_app(gateway, auth=AuthConfig(book))

@@ -1,4 +1,4 @@
-"""POST /controllers/{id}/commands: any command of the catalog as a typed body (issue 5)."""
+"""POST /controllers/{id}/commands: any command of the catalog as a typed body."""
 
 from __future__ import annotations
 

@@ -12,7 +12,7 @@ import pytest
 
 from gateway.service.config import GatewayConfig, parse_config
 from gateway.service.control import ControlChange
-from gateway.service.simulated import simulated_config
+from gateway.service.runtime.simulated import simulated_config
 from gateway.sim.control import Controls
 
 from .conftest import check_server_message

@@ -1,4 +1,4 @@
-"""GET /controllers, /controllers/{id} (cached, or fresh) (issue 5)."""
+"""GET /controllers, /controllers/{id} (cached, or fresh)."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ from collections.abc import AsyncIterator
 
 import pytest
 
-from gateway.service.controllers import FRESH_READS
+from gateway.service.controllers.service import FRESH_READS
 from gateway.service.roles import Role
 from tests.api.sim_app import Api, auth, running_app
 

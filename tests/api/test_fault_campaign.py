@@ -19,7 +19,7 @@ from typing import Any
 import httpx
 
 from gateway.service.events import EventKind, ServiceEvent
-from gateway.service.operation_types import Operation, OperationState
+from gateway.service.operations.types import Operation, OperationState
 from gateway.sim.faults import FaultKind, FaultRule, Faults
 from tests.api.sim_app import Api, running_app
 

@@ -10,9 +10,9 @@ import pytest
 
 from gateway.api.app import create_app
 from gateway.api.security import AuthConfig, TokenBook, TokenEntry, hash_token
-from gateway.service.gateway import Gateway
 from gateway.service.roles import Role
-from gateway.service.simulated import SIM_LOOP, simulated_config
+from gateway.service.runtime.runtime import Runtime
+from gateway.service.runtime.simulated import SIM_LOOP, simulated_config
 from gateway.transport.pipe import PipeTransport
 from tests.api.sim_app import Api, auth, running_app
 
@@ -71,7 +71,7 @@ async def closed() -> AsyncIterator[httpx.AsyncClient]:
     config = simulated_config(("1",))
     security = config.security.model_copy(update={"open_metrics": False, "open_docs": False})
     config = config.model_copy(update={"security": security})
-    gateway = Gateway(config, transports={SIM_LOOP: PipeTransport(_never)})
+    gateway = Runtime(config, transports={SIM_LOOP: PipeTransport(_never)})
     book = TokenBook([TokenEntry("vera", Role.VIEWER, hash_token("tok-vera"))])
     app = create_app(gateway, auth=AuthConfig(book))
     transport = httpx.ASGITransport(app=app)

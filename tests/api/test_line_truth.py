@@ -13,7 +13,7 @@ from typing import Any
 import httpx
 
 from gateway.service.events import EventKind, ServiceEvent
-from gateway.service.simulated import SIM_LOOP
+from gateway.service.runtime.simulated import SIM_LOOP
 from tests.api.sim_app import Api, running_app
 
 #: The line-cut test's simulator speed (device seconds per real second).

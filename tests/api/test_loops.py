@@ -1,4 +1,4 @@
-"""GET /loops, /loops/{loop}, the line trace (issue 5)."""
+"""GET /loops, /loops/{loop}, the line trace."""
 
 from __future__ import annotations
 

@@ -11,7 +11,7 @@ import httpx
 import pytest
 from fastapi import APIRouter, FastAPI
 
-from gateway.api.health import install_operations
+from gateway.api.health import install_health_and_metrics
 from gateway.api.metrics import CONTENT_TYPE, Metrics, WsStats
 from gateway.api.problems import install_problem_handlers
 from gateway.api.security import AuthConfig, install_security
@@ -21,8 +21,8 @@ from gateway.bus.events import EventBus, TransactionDone
 from gateway.bus.lifecycle import LinkState
 from gateway.bus.requests import Outcome, Priority
 from gateway.protocol.registry import parse
-from gateway.service.gateway import Gateway
-from gateway.service.simulated import SIM_LOOP, simulated_config
+from gateway.service.runtime.runtime import Runtime
+from gateway.service.runtime.simulated import SIM_LOOP, simulated_config
 from gateway.sim.cli import build_loop
 from gateway.sim.clock import SimClock
 from gateway.sim.serve import SimPort
@@ -220,7 +220,7 @@ def build_app(gateway: Any) -> FastAPI:
     app = FastAPI()
     install_problem_handlers(app)
     install_security(app, AuthConfig())  # tokens required, none known: probes stay open
-    install_operations(app, gateway)
+    install_health_and_metrics(app, gateway)
     api = APIRouter()
 
     @api.get("/axes/{ident}")
@@ -282,7 +282,7 @@ async def test_healthz_and_readyz_need_no_token_and_name_the_loops_down():
 
 async def test_a_simulated_loop_counts_every_transaction():
     sim = build_loop(["1"], clock=SimClock(50.0))
-    gateway = Gateway(
+    gateway = Runtime(
         simulated_config(("1",)),
         transports={SIM_LOOP: PipeTransport(lambda: SimPort(sim))},
         time_scale=50.0,

@@ -7,7 +7,7 @@ control surface presses EMS and switches a controller off.
 from __future__ import annotations
 
 from gateway import __version__
-from gateway.service.simulated import SIM_LOOP
+from gateway.service.runtime.simulated import SIM_LOOP
 from gateway.sim.control import Controls
 from tests.api.sim_app import running_app
 from tests.api.test_metrics import parse_exposition, value

@@ -12,9 +12,10 @@ import asyncio
 import contextlib
 
 from gateway.api.metrics import Metrics
+from gateway.cli.serve import open_lines
 from gateway.protocol.registry import parse
 from gateway.service.config import parse_config
-from gateway.service.gateway import Gateway
+from gateway.service.runtime.runtime import Runtime
 from gateway.sim.cli import build_loop
 from gateway.sim.clock import SimClock
 from gateway.sim.serve import serve_tcp
@@ -49,7 +50,7 @@ async def test_a_slow_device_server_shows_in_the_measured_busy_time() -> None:
         "name": "main", "port": f"socket://127.0.0.1:{port}", "controllers": [{"body": "1"}],
         "timeouts": {"host_latency": 0.5}, "poll": {"idle_period": 600, "sensor_period": 3600,
                                                     "condition_period": 3600}}]})  # fmt: skip
-    gateway = Gateway(config)
+    gateway = Runtime(config, transports=open_lines(config))
     metrics = Metrics(gateway)
     try:
         await gateway.start()

@@ -10,6 +10,7 @@ import pytest
 from fastapi import FastAPI
 from pydantic import BaseModel
 
+from gateway.api.problem_docs import install_problem_docs
 from gateway.api.problems import PROBLEM_RESPONSES, install_problem_handlers
 from gateway.bus.requests import DeadlineExpired, LoopDown, TransactionError
 from gateway.errors import (
@@ -32,6 +33,7 @@ class Move(BaseModel):
 def build_app() -> FastAPI:
     app = FastAPI()
     install_problem_handlers(app)
+    install_problem_docs(app)
 
     @app.post("/axes/{ident}/move", responses=PROBLEM_RESPONSES)
     async def move(ident: str, body: Move) -> dict[str, Any]:

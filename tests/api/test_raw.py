@@ -1,4 +1,4 @@
-"""POST /loops/{loop}/raw: command text parsed through the catalog first (issue 5)."""
+"""POST /loops/{loop}/raw: command text parsed through the catalog first."""
 
 from __future__ import annotations
 

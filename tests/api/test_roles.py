@@ -1,4 +1,4 @@
-"""Role enumeration over every route of the real app (issue 5, "Security and audit").
+"""Role enumeration over every route of the real app.
 
 Every mutating route refuses a viewer token with 403; every admin route refuses an operator
 with 403; the routes the issue names as admin-only are admin routes. Nothing of a refused

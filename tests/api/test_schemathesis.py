@@ -1,4 +1,4 @@
-"""schemathesis against openapi.json: no 5xx, no response that breaks the schema (issue 5).
+"""schemathesis against openapi.json: no 5xx, no response that breaks the schema.
 
 The real app runs on a real uvicorn server (a thread with its own event loop) on an
 in-process simulated loop; schemathesis generates requests for every operation of the
@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import re
 import socket
 import threading
 from collections.abc import Iterator
@@ -29,8 +30,8 @@ from gateway.api.app import create_app
 from gateway.api.security import AuthConfig
 from gateway.cli.documents import documents
 from gateway.cli.serve import sim_line
-from gateway.service.gateway import Gateway
-from gateway.service.simulated import SIM_LOOP, simulated_config
+from gateway.service.runtime.runtime import Runtime
+from gateway.service.runtime.simulated import SIM_LOOP, simulated_config
 from gateway.sim.cli import build_loop
 from gateway.sim.clock import SimClock
 
@@ -58,7 +59,7 @@ class ServerThread(threading.Thread):
 
     async def _serve(self) -> None:
         sim = build_loop(["1", "2", "3"], clock=SimClock(SCALE))
-        gateway = Gateway(
+        gateway = Runtime(
             simulated_config(),
             transports={SIM_LOOP: sim_line(sim)},
             time_scale=SCALE,
@@ -107,4 +108,25 @@ def base_url() -> Iterator[str]:
     derandomize=True,
 )
 def test_no_server_error_and_every_response_as_documented(case, base_url: str) -> None:  # type: ignore[no-untyped-def]
+    if not _valid_http_headers(case.headers):
+        # Not an HTTP request: uvicorn's parser refuses it (400, its own text/plain) before
+        # the app sees it. Which cases hypothesis draws shifts with any change of the code.
+        response = case.call(base_url=base_url, timeout=60)
+        assert response.status_code == 400, response.text
+        return
     case.call_and_validate(base_url=base_url, checks=CHECKS, timeout=60)
+
+
+#: A header name is a token (RFC 9110 §5.1, §5.6.2).
+_TOKEN = re.compile(r"[!#$%&'*+.^_`|~0-9A-Za-z-]+")
+
+
+def _valid_http_headers(headers: dict[str, str] | None) -> bool:
+    """True when every generated header can be sent in an HTTP/1.1 request: its name is a
+    token, and a Content-Length is a number."""
+    for name, value in (headers or {}).items():
+        if not _TOKEN.fullmatch(name):
+            return False
+        if name.lower() == "content-length" and not str(value).strip().isdigit():
+            return False
+    return True

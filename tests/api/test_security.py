@@ -9,6 +9,7 @@ import httpx
 import pytest
 from fastapi import APIRouter, Depends, FastAPI, WebSocket
 
+from gateway.api.problem_docs import install_problem_docs
 from gateway.api.problems import install_problem_handlers
 from gateway.api.security import (
     AuthConfig,
@@ -41,6 +42,7 @@ def book() -> TokenBook:
 def build_app(auth: AuthConfig) -> FastAPI:
     app = FastAPI()
     install_problem_handlers(app)
+    install_problem_docs(app)
     install_security(app, auth)
 
     def who(p: Principal) -> dict[str, Any]:

@@ -15,8 +15,9 @@ import pytest
 
 from gateway.api.app import create_app
 from gateway.api.security import AuthConfig
+from gateway.cli.serve import open_lines
 from gateway.service.config import load_config
-from gateway.service.gateway import Gateway
+from gateway.service.runtime.runtime import Runtime
 from tests.sim_process import sim_on_pty
 
 SCALE = 20.0
@@ -45,7 +46,8 @@ async def client(tmp_path: Path) -> AsyncIterator[httpx.AsyncClient]:
     async with sim_on_pty(tmp_path, "--bodies", "1", "--time-scale", str(SCALE)) as port:
         cell = tmp_path / "cell.toml"
         cell.write_text(CELL.format(port=port))
-        gateway = Gateway(load_config(cell), time_scale=SCALE)
+        config = load_config(cell)
+        gateway = Runtime(config, transports=open_lines(config), time_scale=SCALE)
         app = create_app(gateway, auth=AuthConfig(no_auth=True))
         async with app.router.lifespan_context(app):
             transport = httpx.ASGITransport(app=app)

@@ -1,4 +1,4 @@
-"""200 WebSocket clients while an axis moves; one of them stops reading (issue 5, "Tests").
+"""200 WebSocket clients while an axis moves; one of them stops reading.
 
 Each fast client must receive every position change, in order, with increasing seq. The slow
 one stops reading: its socket fills, its queue on the gateway grows to the backlog and it is

@@ -11,7 +11,7 @@ from gateway.protocol.framing import POWER_ON
 from gateway.protocol.registry import parse
 from gateway.service.config import WsSettings
 from gateway.service.feed import Feed, FeedClient
-from gateway.service.simulated import simulated_config
+from gateway.service.runtime.simulated import simulated_config
 from gateway.service.topology import Topology
 
 from .conftest import check_server_message

@@ -29,7 +29,14 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from playwright.sync_api import Browser, BrowserContext, Page, Playwright, sync_playwright
+from playwright.sync_api import (
+    Browser,
+    BrowserContext,
+    Page,
+    Playwright,
+    expect,
+    sync_playwright,
+)
 
 from tests.browser.chromium import CHROMIUM, CHROMIUM_ARGS
 
@@ -43,6 +50,8 @@ INSTALL_HINT = (
 FOREIGN = re.compile(r"^(?!(https?|wss?)://127\.0\.0\.1[:/]).*")
 #: Real seconds to wait for something the page or the gateway does.
 WAIT = 15.0
+# Assertions wait as long as actions: expect's own default (5 s) is too short on a busy host.
+expect.set_options(timeout=WAIT * 1000)
 #: Where screenshots go for people to look at (the test output).
 SHOTS = Path(os.environ.get("RC233_SCREENSHOTS", "test-output/screenshots"))
 

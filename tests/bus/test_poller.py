@@ -67,6 +67,12 @@ class Rig:
             if r.kind is RecordKind.HEARD and r.data == text and r.time >= since
         ]
 
+    def frames_in(self, start: float, end: float) -> list[LineRecord]:
+        """Every frame the controllers heard in [start, end)."""
+        return [
+            r for r in self.sim.log.since(0) if r.kind is RecordKind.HEARD and start <= r.time < end
+        ]
+
     def answered(self, text: bytes, start: float, end: float) -> list[LineRecord]:
         """Replies that reached the host in [start, end) to frames ``text``."""
         refs = {r.ref for r in self.frames(text)}
@@ -144,7 +150,9 @@ async def test_moving_axis_gets_15_position_reads_a_second_among_15_controllers(
     await r.until(lambda: r.state.axis(LOOP, "7", 1).moving)
     start = r.sim.now()
     await r.sim_time(start + 2.0)
-    replies = r.answered(b"$761\r", start, start + 2.0)
+    # Position reads: 6 of the selected (moving) motor, or 61 until the selection is read back.
+    end = start + 2.0
+    replies = [*r.answered(b"$76\r", start, end), *r.answered(b"$761\r", start, end)]
     assert len(replies) >= 2 * 15, f"{len(replies)} position reads in 2 simulated seconds"
     # The idle controllers are still watched: each had its status read in that window.
     for body in ALL_BODIES.replace("7", ""):
@@ -232,7 +240,9 @@ async def test_a_move_started_by_a_client_is_polled_at_once(rig: Callable[..., R
     r = await rig("1", scale=5.0, idle_period=60.0)
     await r.identified("1")
     await move(r, "1", 2, 20000)
-    started = r.sim.now()
+    # From the move's frame on the line: on a busy host the poller may read the status before
+    # this task runs again.
+    started = r.frames(b"$132\r")[-1].time
     # The '>' makes the axis moving at once; the forced status read confirms it.
     assert r.state.axis(LOOP, "1", 2).moving
 
@@ -242,9 +252,111 @@ async def test_a_move_started_by_a_client_is_polled_at_once(rig: Callable[..., R
 
     await r.until(status_moving, 5.0)
     status = r.frames(b"$1\r", since=started)
-    assert status and status[0].time - started < 0.1
+    assert status and status[0].time - started < 0.5  # idle polls are a minute apart
     # No poll was refused for the move (E, EE, EL, ER, CLM are not usable while moving):
     # no command error appears that nobody made.
     await r.until(lambda: not r.state.axis(LOOP, "1", 2).moving, 10.0)
     await r.until(lambda: r.state.controller(LOOP, "1").status is not None)
     assert ErrorKind.COMMAND not in r.state.controller(LOOP, "1").latched
+
+
+async def test_a_watched_axis_is_read_back_to_back_with_its_status_at_5_hz(
+    rig: Callable[..., Rig],
+) -> None:
+    # Real time: the line's own speed is what is measured (9600 bps, 1 ms turnaround).
+    r = await rig("123", scale=1.0)
+    await r.identified("123")
+    # 20,000 pulses at the default 5,000 pps (OH 5000, §16): about 4 simulated seconds.
+    await move(r, "1", 1, 20000)
+    await r.until(lambda: r.state.controller(LOOP, "1").selection_confirmed)
+    start = r.sim.now()
+    await r.sim_time(start + 2.0)
+    end = start + 2.0
+    positions = [*r.answered(b"$16\r", start, end), *r.answered(b"$161\r", start, end)]
+    status = [f.time for f in r.frames(b"$1\r", since=start) if f.time < end]
+    frames = r.frames_in(start, end)
+    # A position read is 16 characters and a turnaround (some 18 ms: 56 a second on a line
+    # with nothing else); the old plan read it every 50 ms (20 a second, half the frames).
+    assert len(positions) >= 2 * 28, f"{len(positions)} position reads in 2 simulated seconds"
+    assert len(positions) >= 0.65 * len(frames), (len(positions), len(frames))
+    # The status at 5 Hz and more, evenly: the end of the move and errors are seen in time.
+    gaps = [b - a for a, b in pairwise(status)]
+    assert len(status) >= 2 * 5 and max(gaps) <= 0.25, (len(status), gaps)
+    # The idle controllers at their own period (1 s), not at the moving one's.
+    for body in "23":
+        idle = [f for f in r.frames(f"${body}\r".encode(), since=start) if f.time < end]
+        assert 1 <= len(idle) <= 3, (body, len(idle))
+    # With the selection read back, the position is read without a suffix (a character
+    # less); no F was asked for while the motor moved (it would be refused, §10 F).
+    assert r.answered(b"$16\r", start, end)
+    assert not [f for f in r.sim.log.since(0) if f.kind is RecordKind.HEARD
+                and f.data.startswith(b"$1F") and f.time >= start]  # fmt: skip
+    # The end of the move is seen, with its final position, and nothing was refused.
+    await r.until(lambda: not r.state.axis(LOOP, "1", 1).moving)
+    await r.until(lambda: r.state.axis(LOOP, "1", 1).position == 20000)
+    assert not r.state.controller(LOOP, "1").latched
+
+
+async def test_a_limit_error_during_a_watched_move_is_seen(rig: Callable[..., Rig]) -> None:
+    r = await rig("12", scale=1.0)
+    await r.identified("12")
+    await move(r, "1", 1, 20000)
+    await r.until(lambda: len(r.frames(b"$16\r")) + len(r.frames(b"$161\r")) >= 5)
+    hit = r.sim.now()
+    r.controls.sensor("1", 1, "cw_limit", True)
+    await r.until(lambda: r.state.axis(LOOP, "1", 1).limit_error)
+    # Seen by the status read within its period (5 Hz and more), the move ended with it.
+    assert r.sim.now() - hit < 0.5
+    await r.until(lambda: not r.state.axis(LOOP, "1", 1).moving)
+    stopped = r.sim.now()
+    # No position stream is left reading a motor that stands: the line goes back to the plan.
+    await r.sim_time(stopped + 1.0)
+    assert len(r.frames(b"$16\r", since=stopped + 0.2)) <= 1
+
+
+async def test_two_watched_axes_share_the_positions_and_keep_their_status_rate(
+    rig: Callable[..., Rig],
+) -> None:
+    r = await rig("123", scale=1.0)
+    await r.identified("123")
+    await move(r, "1", 1, 20000)
+    await move(r, "2", 1, 20000)
+    await r.until(lambda: all(r.state.controller(LOOP, b).selection_confirmed for b in "12"))
+    start = r.sim.now()
+    await r.sim_time(start + 2.0)
+    end = start + 2.0
+    for body in "12":
+        reads = [
+            *r.answered(f"${body}6\r".encode(), start, end),
+            *r.answered(f"${body}61\r".encode(), start, end),
+        ]
+        # The line's 55 exchanges a second, less the status reads, in turn between the two.
+        assert len(reads) >= 2 * 12, (body, len(reads))
+        status = [f.time for f in r.frames(f"${body}\r".encode(), since=start) if f.time < end]
+        gaps = [b - a for a, b in pairwise(status)]
+        assert len(status) >= 2 * 5 and max(gaps) <= 0.25, (body, len(status), gaps)
+    idle = [f for f in r.frames(b"$3\r", since=start) if f.time < end]
+    assert 1 <= len(idle) <= 3, len(idle)
+    await r.until(lambda: not any(r.state.axis(LOOP, b, 1).moving for b in "12"))
+    await r.until(lambda: all(r.state.axis(LOOP, b, 1).position == 20000 for b in "12"))
+    assert not any(r.state.controller(LOOP, b).latched for b in "123")
+
+
+async def test_the_end_of_a_watched_move_is_seen_two_position_reads_after_it(
+    rig: Callable[..., Rig],
+) -> None:
+    r = await rig("12", scale=1.0)
+    await r.identified("12")
+    for target in (2000, 4000, 6000):  # 2,000 pulses at 5,000 pps: 0.4 s each
+        await move(r, "1", 1, target)
+        await r.until(lambda: r.state.axis(LOOP, "1", 1).moving)
+        await r.until(lambda: not r.state.axis(LOOP, "1", 1).moving)
+        # The first reply on the line that showed the final position, and the status
+        # reply that showed the motor stopped: the status was read at once, not at its
+        # next period (0.18 s).
+        final = f">$1{target:08d}\r".encode()
+        reached = min(x.time for x in r.sim.log.since(0)
+                      if x.kind is RecordKind.REPLY and x.data == final)  # fmt: skip
+        status = r.answered(b"$1\r", reached, float("inf"))
+        stopped = min(x.time for x in status if x.data == b">$10\r")
+        assert stopped - reached <= 0.08, (target, stopped - reached)

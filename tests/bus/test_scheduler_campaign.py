@@ -1,4 +1,4 @@
-"""The fault campaign of issue 4: concurrent callers over 3 controllers x 2 motors, with 5 %
+"""The scheduler's fault campaign: concurrent callers over 3 controllers x 2 motors, with 5 %
 '?', 2 % dropped and 1 % garbled replies injected by the simulator.
 
 Every caller gets an answer, and every motor ends where the moves the scheduler reported imply:

@@ -99,8 +99,9 @@ async def test_unsolicited_messages_never_satisfy_a_pending_reply(make_bus: Make
 
 async def test_a_write_message_after_the_hold_is_an_event_not_a_reply(make_bus: MakeBus) -> None:
     # A hold shorter than the write: the line is released before '$1*' comes, and the
-    # queries sent meanwhile get their own replies.
-    bus = await make_bus("12", eeprom_write_hold=0.05, host_latency=0.003)
+    # queries sent meanwhile get their own replies. At a time scale of 5 the write (1.5 s)
+    # outlasts the hold by 0.3 real seconds, so a busy host cannot let '$1*' in before it ends.
+    bus = await make_bus("12", scale=5.0, eeprom_write_hold=0.05, host_latency=0.003)
     result = await bus.scheduler.submit("1", parse("AW"))
     assert result.outcome is Outcome.UNKNOWN
     assert result.results[0].seen["eeprom_done"] is False

@@ -1,4 +1,4 @@
-"""The port disappears and comes back, over the real serial path (issue 4, Tests).
+"""The port disappears and comes back, over the real serial path.
 
 The simulator is served on a pseudo-terminal (as `rc233-gateway sim --pty` serves it) or over
 TCP (as a serial device server would), and the scheduler talks to it through

@@ -298,3 +298,47 @@ def test_scheduler_events_feed_the_cache() -> None:
     assert not cache.loop(LOOP).up and cache.loop(LOOP).cause == "port closed"
     assert cache.controller(LOOP, "1").online is None
     assert ErrorKind.LIMIT in cache.controller(LOOP, "1").latched
+
+
+def test_an_idle_poll_publishes_nothing_yet_every_reader_sees_its_time() -> None:
+    cache = StateCache()
+    reply(cache, "", "0", 1.0)
+    reply(cache, "61", "00003500", 1.0)
+    held_ctl, held_axis = cache.controller(LOOP, "1"), cache.axis(LOOP, "1", 1)
+    seq = cache.seq
+    # The same answers again and again: nothing changed but the time of the latest reply.
+    for t in (2.0, 3.0, 4.0):
+        reply(cache, "", "0", t)
+        reply(cache, "61", "00003500", t)
+    assert cache.seq == seq  # no change record for a subscriber
+    # A record a reader holds never changes under it ...
+    assert held_ctl.updated == 1.0 and held_axis.updated == 1.0
+    # ... and every way of reading shows the latest reply's time.
+    assert cache.controller(LOOP, "1").updated == 4.0
+    assert cache.axis(LOOP, "1", 1).updated == 4.0
+    snap = cache.snapshot()
+    assert snap.controllers[LOOP, "1"].updated == 4.0 and snap.axes[LOOP, "1", 2].updated == 4.0
+    # Fresh for the staleness rule as well: 3 s after the last reply, not after the first.
+    cache.refresh(6.5)
+    assert not cache.axis(LOOP, "1", 1).stale
+    cache.refresh(7.5)
+    assert cache.axis(LOOP, "1", 1).stale
+    # A change that comes with a reply carries that reply's time.
+    reply(cache, "61", "00003600", 8.0)
+    change = cache.changes_since(cache.seq - 1)
+    assert change and change[-1].values["position"] == 3600 and change[-1].values["updated"] == 8.0
+
+
+def test_counters_are_copied_only_when_published() -> None:
+    cache = StateCache()
+    cache.counters_period = 1.0
+    seen: list[Change] = []
+    cache.listen(seen.append)
+    for i in range(25):  # 25 transactions in 2.4 s: the counters published 3 times
+        done = TransactionDone(
+            loop=LOOP, time=i * 0.1, body="1", commands=("",), outcome=Outcome.DONE,
+            priority=Priority.POLL, duration=0.01, exchanges=1,
+            counters=CountersSnapshot(transactions=i),
+        )  # fmt: skip
+        cache.handle(done)
+    assert [c.time for c in seen if "counters" in c.values] == [0.0, 1.0, 2.0]

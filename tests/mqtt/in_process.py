@@ -10,8 +10,8 @@ from typing import Any
 
 from gateway.mqtt.edge_node import EdgeNode
 from gateway.service.config import MqttSettings
-from gateway.service.gateway import Gateway
-from gateway.service.simulated import SIM_LOOP, simulated_config
+from gateway.service.runtime.runtime import Runtime
+from gateway.service.runtime.simulated import SIM_LOOP, simulated_config
 from gateway.sim.cli import build_loop
 from gateway.sim.serve import SimPort
 from gateway.transport.pipe import PipeTransport
@@ -20,10 +20,10 @@ from gateway.transport.pipe import PipeTransport
 @asynccontextmanager
 async def edge_node(
     port: int, *, connected: bool = True, **settings: Any
-) -> AsyncIterator[tuple[Gateway, EdgeNode]]:
+) -> AsyncIterator[tuple[Runtime, EdgeNode]]:
     """A gateway whose loops are not started (the test feeds its cache) and its edge node."""
     sim = build_loop(["1"])
-    gateway = Gateway(
+    gateway = Runtime(
         simulated_config(["1"]), transports={SIM_LOOP: PipeTransport(lambda: SimPort(sim))}
     )
     mqtt = MqttSettings(host="127.0.0.1", port=port, group="plant", edge_node="fed", **settings)

@@ -9,13 +9,13 @@ from __future__ import annotations
 
 from gateway.bus.events import ReplyObserved
 from gateway.protocol.registry import parse
-from gateway.service.gateway import Gateway
-from gateway.service.simulated import SIM_LOOP
+from gateway.service.runtime.runtime import Runtime
+from gateway.service.runtime.simulated import SIM_LOOP
 from tests.mqtt.broker import Broker, Central, seqs_in_order
 from tests.mqtt.in_process import edge_node
 
 
-def position(gateway: Gateway, pulses: int, at: float) -> None:
+def position(gateway: Runtime, pulses: int, at: float) -> None:
     """The scheduler decoded a ``61`` reply (§10 6): motor 1 is at ``pulses``."""
     gateway.state.handle(
         ReplyObserved(loop=SIM_LOOP, time=at, body="1", command=parse("61"), value=pulses)

@@ -11,13 +11,11 @@ from gateway.protocol.params import (
     Dec,
     HexDigit,
     IntChoice,
-    Jump,
-    Label,
     Param,
     Position,
-    Text,
 )
 from gateway.protocol.registry import Entry
+from gateway.protocol.text_params import Jump, Label, Text
 
 LABEL_CHARS = "0123456789@%&*=<>?!\uff71\uff72"
 LOWER = "abcdefghijklmnopqrstuvwxyz"

@@ -13,19 +13,16 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from gateway.errors import ParameterError
+from gateway.protocol.command_reader import CommandFrame, CommandReader, RawText, Stray
 from gateway.protocol.framing import (
     BODY_NUMBERS,
     EEPROM_DONE,
     MAX_FRAME,
     POWER_ON,
     TIMER_UP,
-    CommandFrame,
-    CommandReader,
     Framing,
     FramingSwitch,
-    RawText,
     Series,
-    Stray,
     checksum,
     encode_ack,
     encode_command,

@@ -11,14 +11,11 @@ from gateway.protocol.params import (
     Digits,
     HexDigit,
     IntChoice,
-    Jump,
-    Label,
     Param,
     Position,
     PositionFormat,
-    Text,
-    jump_count,
 )
+from gateway.protocol.text_params import Jump, Label, Text, jump_count
 
 
 @pytest.mark.parametrize(

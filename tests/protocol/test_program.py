@@ -19,7 +19,7 @@ from gateway.errors import (
     UnknownCommandError,
 )
 from gateway.protocol.models import Command
-from gateway.protocol.params import Jump, PositionFormat
+from gateway.protocol.params import PositionFormat
 from gateway.protocol.program import (
     CAPACITY_BYTES,
     Program,
@@ -29,6 +29,7 @@ from gateway.protocol.program import (
     upload_chunks,
 )
 from gateway.protocol.registry import REGISTRY, Context, Entry, parse_statement
+from gateway.protocol.text_params import Jump
 
 from .strategies import LABEL_CHARS, LOWER, form_values
 

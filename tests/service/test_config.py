@@ -6,8 +6,12 @@ from pathlib import Path
 
 import pytest
 
+from gateway.bus.config import LoopConfig
+from gateway.bus.poll_plan import PollConfig
 from gateway.service.config import ConfigError, load_config, parse_config
 from gateway.service.roles import Role
+from gateway.service.runtime.runtime import loop_config, poll_config
+from gateway.service.topology import Topology
 
 EXAMPLE = Path(__file__).parents[2] / "deploy" / "cell.example.toml"
 
@@ -52,7 +56,7 @@ def test_the_deploy_example_ships_no_working_token_and_says_what_it_holds(
 def test_defaults_of_a_minimal_file() -> None:
     config = parse_config(MINIMAL)
     loop = config.loops[0]
-    assert loop.timeouts.nak_retries == 3 and loop.poll.moving_period == 0.05
+    assert loop.timeouts.nak_retries == 3 and loop.poll.moving_period == 0.18
     assert config.security.tokens == [] and config.audit_log is None
 
 
@@ -127,3 +131,20 @@ def test_file_problems_name_the_file(tmp_path: Path) -> None:
 def test_environment_overrides_a_top_level_key(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv("RC233_AUDIT_LOG", "/tmp/audit.jsonl")
     assert parse_config(MINIMAL).audit_log == Path("/tmp/audit.jsonl")
+
+
+def test_timeouts_and_poll_periods_are_the_bus_settings_with_the_bus_defaults() -> None:
+    # The file's [loops.timeouts] and [loops.poll] are LoopConfig's and PollConfig's fields:
+    # the same names, the same defaults, and a value set in the file reaches the scheduler.
+    loop = parse_config(MINIMAL).loops[0]
+    for name, value in loop.timeouts.model_dump().items():
+        assert getattr(LoopConfig(), name) == value, name
+    for name, value in loop.poll.model_dump().items():
+        assert getattr(PollConfig(), name) == value, name
+    config = parse_config(
+        _with(timeouts={"turnaround": 0.05, "nak_retries": 5}, poll={"idle_period": 2.5})
+    )
+    ref = Topology(config).loop("main")
+    scheduler = loop_config(config.loops[0], ref, 1.0)
+    assert (scheduler.turnaround, scheduler.nak_retries) == (0.05, 5)
+    assert poll_config(config.loops[0]).idle_period == 2.5

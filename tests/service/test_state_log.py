@@ -1,4 +1,4 @@
-"""One log line per state change (gateway.service.state_log), never one per poll.
+"""One log line per state change (gateway.service.runtime.state_log), never one per poll.
 
 A simulated loop behind the gateway's real serial path: a controller switched off goes
 offline in one WARNING line and comes back in one INFO line however many polls it misses;
@@ -17,9 +17,9 @@ from dataclasses import dataclass
 
 from gateway.bus.events import LinkDown, LinkUp
 from gateway.cli.logs import JsonFormatter
-from gateway.service.gateway import Gateway
-from gateway.service.simulated import SIM_LOOP, simulated_config
-from gateway.service.state_log import StateLog
+from gateway.service.runtime.runtime import Runtime
+from gateway.service.runtime.simulated import SIM_LOOP, simulated_config
+from gateway.service.runtime.state_log import StateLog
 from gateway.sim.cli import build_loop
 from gateway.sim.clock import SimClock
 from gateway.sim.control import Controls
@@ -56,7 +56,7 @@ class Recorder(logging.Handler):
 
 @dataclass
 class Running:
-    gateway: Gateway
+    gateway: Runtime
     controls: Controls
     log: Recorder
     now: list[float]
@@ -65,7 +65,7 @@ class Running:
 @asynccontextmanager
 async def running(summary_period: float = 60.0) -> AsyncIterator[Running]:
     sim = build_loop(["1", "2"], clock=SimClock(SCALE))
-    gateway = Gateway(
+    gateway = Runtime(
         simulated_config(["1", "2"]),
         transports={SIM_LOOP: PipeTransport(lambda: SimPort(sim))},
         time_scale=SCALE,

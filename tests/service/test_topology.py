@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from gateway.errors import InvalidInputError, NotFoundError
-from gateway.service.simulated import simulated_config
+from gateway.service.runtime.simulated import simulated_config
 from gateway.service.topology import Topology
 
 

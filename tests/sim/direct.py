@@ -10,9 +10,11 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from gateway.protocol.framing import CommandFrame, CommandReader, RawText, Series, to_wire
-from gateway.sim.controller import Controller, Later
+from gateway.protocol.command_reader import CommandFrame, CommandReader, RawText
+from gateway.protocol.framing import Series, to_wire
+from gateway.sim.controller import Controller
 from gateway.sim.eeprom import Eeprom
+from gateway.sim.line_out import Later
 
 
 @dataclass

@@ -44,7 +44,7 @@ ALPHA = 1_474_560_000 / (300 * 300)  # 16,384 pps/s
 
 
 def close(actual: float, expected: float, rel: float = 0.005) -> bool:
-    """Within 0.5 % (the issue's tolerance)."""
+    """Within 0.5 %: the manual prints its figures to three digits."""
     return math.isclose(actual, expected, rel_tol=rel)
 
 
@@ -222,7 +222,7 @@ def test_s_ramp_with_oc_100_is_all_s() -> None:
 
 def test_move_of_2000_pulses_trapezoid() -> None:
     # Two ramps 2 × 755.31 = 1510.62 pulses; cruise (2000 - 1510.62) / 5000 = 0.097876 s;
-    # total 2 × 0.274658 + 0.097876 = 0.647192 s (issue: about 0.647).
+    # total 2 × 0.274658 + 0.097876 = 0.647192 s (expected: about 0.647).
     expected = 2 * TACC + (2000 - 2 * RAMP_PULSES) / 5000
     assert expected == pytest.approx(0.6471923828125)
     move = plan_move(DEFAULTS, 2000)
@@ -237,7 +237,7 @@ def test_move_of_4000_pulses_s_curve_oc_50() -> None:
     # OC 50: tacc = 4500 / (24,576 × 150) × 300 = 0.366211 s. The S ramp is point-symmetric,
     # so it covers (500 + 5000) / 2 × 0.366211 = 1007.080 pulses; two: 2014.160.
     # Cruise (4000 - 2014.160) / 5000 = 0.397168 s; total 2 × 0.366211 + 0.397168 = 1.129590 s
-    # (issue: about 1.130).
+    # (expected: about 1.130).
     tacc = 4500 / (24576 * 150) * 300
     expected = 2 * tacc + (4000 - 2 * 2750 * tacc) / 5000
     assert expected == pytest.approx(1.12958984375)
@@ -256,7 +256,7 @@ def test_move_of_4000_pulses_s_curve_oc_50() -> None:
 def test_short_move_turns_at_an_intermediate_speed_trapezoid() -> None:
     # 1000 < 1510.62 pulses: a triangle to fH' (§7-3). Each ramp covers
     # (fH'² - fL²) / (2α) = 500 pulses: fH'² = 500² + 16,384 × 1000 = 16,634,000,
-    # fH' = 4078.48 pps; total 2 × (4078.48 - 500) / 16,384 = 0.436826 s (issue: about 0.437).
+    # fH' = 4078.48 pps; total 2 × (4078.48 - 500) / 16,384 = 0.436826 s (expected: about 0.437).
     peak = math.sqrt(500**2 + ALPHA * 1000)
     expected = 2 * (peak - 500) / ALPHA
     assert expected == pytest.approx(0.43683, abs=1e-5)

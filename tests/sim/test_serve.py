@@ -233,7 +233,7 @@ def test_bad_options_are_refused(capsys: pytest.CaptureFixture[str]) -> None:
 
 
 async def test_the_in_process_port_reads_eof_when_the_loop_closes() -> None:
-    # A transport reading the port must learn that the line went away (issue 4: loop down).
+    # A transport reading the port must learn that the line went away (the loop is then down).
     loop = make_loop()
     port = SimPort(loop)
     port.write(b"$1\r")

@@ -1,4 +1,4 @@
-"""Real-time motion at time scale 1, as a host on the line sees it (issue 3, "Tests: timing").
+"""Real-time motion at time scale 1, as a host on the line sees it.
 
 A move is started over the in-process line at 9600 bps and ``""`` is polled until bit 0 is 0,
 as the manual's sample programs do (§13-2 CHECK). The line log gives the simulated time each

@@ -6,7 +6,8 @@ the manual is ambiguous.
 
 from __future__ import annotations
 
-from gateway.protocol.params import CharChoice, Dec, Digits, IntChoice, Position
+from gateway.protocol.catalog.position_table import CMD_A, CMD_B, CMD_BPM
+from gateway.protocol.params import Dec, IntChoice, Position
 from gateway.protocol.spec import CommandSpec, Effect, Persist, ReplyFormat, Scope, form
 
 ACK = ReplyFormat.ACK
@@ -127,13 +128,20 @@ CMD_6 = CommandSpec(
     section="10",
     scope=Scope.PER_MOTOR,
     forms=(
-        form("6", POSITION, QUERY, "query the current position of the selected motor"),
+        form(
+            "6",
+            POSITION,
+            QUERY,
+            "query the current position of the selected motor",
+            reads_position=True,
+        ),
         form(
             "6{mt}",
             POSITION,
             QUERY,
             "query the current position of motor MT",
             IntChoice("mt", values=(1, 2)),
+            reads_position=True,
         ),
     ),
 )
@@ -211,120 +219,6 @@ CMD_9 = CommandSpec(
     ),
 )
 
-CMD_A = CommandSpec(
-    mnemonic="A",
-    title="Position table (1000 points) for B and B+(-)",
-    section="10",
-    scope=Scope.SHARED,
-    persisted_by=Persist.AW,
-    default="0",
-    forms=(
-        form(
-            "A{pn}{pp}",
-            ACK,
-            SETTING,
-            "set the position pulse count of position number pn",
-            Digits("pn", lo=0, hi=999, digits=3),
-            Position("pp"),
-        ),
-        form(
-            "A{pn}",
-            ACK,
-            SETTING,
-            "store the current position as entry pn",
-            Digits("pn", lo=0, hi=999, digits=3),
-        ),
-        form("A{pn}D", POSITION, QUERY, "query entry pn", Digits("pn", lo=0, hi=999, digits=3)),
-    ),
-)
-
-CMD_B = CommandSpec(
-    mnemonic="B",
-    title="Absolute move to a position-table entry (with sequential mode and next-number query BN)",
-    section="10",
-    scope=Scope.PER_MOTOR,
-    while_moving=False,
-    forms=(
-        form(
-            "B{pn}",
-            ACK,
-            MOTION,
-            "move the selected motor to the position of entry pn",
-            Digits("pn", lo=0, hi=999, digits=3),
-        ),
-        form(
-            "B{pn}{mt}",
-            ACK,
-            MOTION,
-            "select motor MT and move it to the position of entry pn",
-            Digits("pn", lo=0, hi=999, digits=3),
-            IntChoice("mt", values=(1, 2)),
-            selects_motor=True,
-        ),
-        form(
-            "B", ACK, MOTION, "move to the entry following the one used by the previous B / B+(-)"
-        ),
-        form(
-            "B{mt}",
-            ACK,
-            MOTION,
-            "select motor MT and move it to the next entry",
-            IntChoice("mt", values=(1, 2)),
-            selects_motor=True,
-        ),
-        form(
-            "BN",
-            DEC5,
-            QUERY,
-            "query the position number the next sequential B / B+(-) will use (BN)",
-        ),
-    ),
-)
-
-CMD_BPM = CommandSpec(
-    mnemonic="B+(-)",
-    title="Incremental move by a position-table entry (+ = CW, - = CCW)",
-    section="10",
-    scope=Scope.PER_MOTOR,
-    while_moving=False,
-    forms=(
-        form(
-            "B{pn}{dir}",
-            ACK,
-            MOTION,
-            "move the selected motor relatively by |A[pn]| CW (+) or CCW (-)",
-            Digits("pn", lo=0, hi=999, digits=3),
-            CharChoice("dir", values=("+", "-")),
-        ),
-        form(
-            "B{pn}{mt}{dir}",
-            ACK,
-            MOTION,
-            "select motor MT and move it relatively by |A[pn]|",
-            Digits("pn", lo=0, hi=999, digits=3),
-            IntChoice("mt", values=(1, 2)),
-            CharChoice("dir", values=("+", "-")),
-            selects_motor=True,
-        ),
-        form(
-            "B{dir}",
-            ACK,
-            MOTION,
-            "relative move by the next entry after the previous B / B+(-)",
-            CharChoice("dir", values=("+", "-")),
-        ),
-        form(
-            "B{mt}{dir}",
-            ACK,
-            MOTION,
-            "select motor MT and move it by the next entry",
-            IntChoice("mt", values=(1, 2)),
-            CharChoice("dir", values=("+", "-")),
-            selects_motor=True,
-        ),
-    ),
-)
-
 CMD_H = CommandSpec(
     mnemonic="H",
     title="Switch jog to High speed",
@@ -383,7 +277,7 @@ CMD_S = CommandSpec(
     title="Stop immediately",
     section="10",
     scope=Scope.PER_MOTOR,
-    forms=(form("S", ACK, STOP, "stop the motor at once"),),
+    forms=(form("S", ACK, STOP, "stop the motor at once", is_stop=True),),
 )
 
 CMD_SS = CommandSpec(
@@ -391,7 +285,7 @@ CMD_SS = CommandSpec(
     title="Slow stop (decelerate to Low speed, then stop)",
     section="10",
     scope=Scope.PER_MOTOR,
-    forms=(form("SS", ACK, STOP, "decelerate and stop"),),
+    forms=(form("SS", ACK, STOP, "decelerate and stop", is_stop=True),),
 )
 
 

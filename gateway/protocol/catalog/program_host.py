@@ -6,8 +6,9 @@ the manual is ambiguous.
 
 from __future__ import annotations
 
-from gateway.protocol.params import CharChoice, Dec, HexDigit, IntChoice, Label
+from gateway.protocol.params import CharChoice, Dec, HexDigit, IntChoice
 from gateway.protocol.spec import CommandSpec, Effect, Persist, ReplyFormat, Scope, form
+from gateway.protocol.text_params import Label
 
 ACK = ReplyFormat.ACK
 BUFFER = ReplyFormat.BUFFER
@@ -74,7 +75,7 @@ CMD_GES = CommandSpec(
     section="10",
     scope=Scope.CONTROLLER,
     user_program=False,
-    forms=(form("GES", ACK, STOP, "end the running program at once"),),
+    forms=(form("GES", ACK, STOP, "end the running program at once", is_stop=True),),
 )
 
 CMD_GN = CommandSpec(

@@ -18,6 +18,7 @@ from __future__ import annotations
 import dataclasses
 from typing import TYPE_CHECKING, Any
 
+from gateway.sim.actions import stop_moving
 from gateway.sim.axis import Direction, FollowUp, HomingMethod, HomingSetup
 from gateway.sim.dispatch import Refused, handles
 from gateway.sim.encoder import ADJUST_UNIT, adjust_plan, within_rule
@@ -27,13 +28,13 @@ from gateway.sim.servo import inp_plan
 from gateway.sim.stepout import guard_for
 
 if TYPE_CHECKING:
-    from gateway.sim.controller import Controller
+    from gateway.sim.controller_view import ControllerView
 
 #: The first entry a sequential B uses when no B ran since power-on (§10 B 注意点).
 FIRST_SEQUENTIAL_ENTRY = 1
 
 
-def _motor_for_motion(ctl: Controller, cmd: Any, *, homing: bool = False) -> int | None:
+def _motor_for_motion(ctl: ControllerView, cmd: Any, *, homing: bool = False) -> int | None:
     """The motor to move, or None when EMS or a step-out error prevents the motion."""
     motor = ctl.motor_of(cmd)
     if ctl.ems_on:
@@ -45,7 +46,7 @@ def _motor_for_motion(ctl: Controller, cmd: Any, *, homing: bool = False) -> int
     return motor
 
 
-def _outside_rule(ctl: Controller, position: int) -> bool:
+def _outside_rule(ctl: ControllerView, position: int) -> bool:
     """Mode 1: a position breaking |pp × PB / PA| < 8,388,608 is a limit error (§7-4 ②)."""
     if ctl.settings.shared.mode != 1:
         return False
@@ -56,7 +57,7 @@ def _outside_rule(ctl: Controller, position: int) -> bool:
     return True
 
 
-def _extras(ctl: Controller, motor: int, target: int | None = None) -> dict[str, Any]:
+def _extras(ctl: ControllerView, motor: int, target: int | None = None) -> dict[str, Any]:
     """The step-out detection of a plain motion and what follows it (mode 1 / 2)."""
     shared = ctl.settings.shared
     speeds = ctl.settings.speed(motor)
@@ -77,12 +78,12 @@ def _extras(ctl: Controller, motor: int, target: int | None = None) -> dict[str,
     return {"guard": guard_for(ctl.settings, motor), "after": after}
 
 
-def _move_to(ctl: Controller, motor: int, target: int, now: float) -> None:
+def _move_to(ctl: ControllerView, motor: int, target: int, now: float) -> None:
     """Absolute move: the distance is target - current, both in the format in force (§7-4)."""
     _move_by(ctl, motor, target - ctl.position(motor, now), now)
 
 
-def _move_by(ctl: Controller, motor: int, distance: int, now: float) -> None:
+def _move_by(ctl: ControllerView, motor: int, distance: int, now: float) -> None:
     """A move of ``distance`` positions (mode 1: encoder counts) from where the motor is."""
     shared = ctl.settings.shared
     settings = ctl.settings.speed(motor)
@@ -96,7 +97,7 @@ def _move_by(ctl: Controller, motor: int, distance: int, now: float) -> None:
 
 
 @handles("0", "0{mt}", "0A", "0A{mt}", "0H", "0H{mt}", "0R", "0R{mt}", "0Z", "0Q")
-def home(ctl: Controller, cmd: Any, now: float) -> None:
+def home(ctl: ControllerView, cmd: Any, now: float) -> None:
     """§10 0, 0A, 0H, 0R, 0Z, 0Q: origin searches."""
     motor = _motor_for_motion(ctl, cmd, homing=True)
     if motor is None:
@@ -119,7 +120,7 @@ def home(ctl: Controller, cmd: Any, now: float) -> None:
 
 
 @handles("1", "1{mt}")
-def go_origin(ctl: Controller, cmd: Any, now: float) -> None:
+def go_origin(ctl: ControllerView, cmd: Any, now: float) -> None:
     """§10 1: absolute move to position 0."""
     motor = _motor_for_motion(ctl, cmd)
     if motor is not None:
@@ -127,7 +128,7 @@ def go_origin(ctl: Controller, cmd: Any, now: float) -> None:
 
 
 @handles("3", "3{mt}")
-def go_position_data(ctl: Controller, cmd: Any, now: float) -> None:
+def go_position_data(ctl: ControllerView, cmd: Any, now: float) -> None:
     """§10 3: absolute move to the position data of command 2."""
     motor = _motor_for_motion(ctl, cmd)
     target = ctl.shown(ctl.settings.shared.position_data)
@@ -136,7 +137,7 @@ def go_position_data(ctl: Controller, cmd: Any, now: float) -> None:
 
 
 @handles("4", "4{mt}", "5", "5{mt}")
-def step_position_data(ctl: Controller, cmd: Any, now: float) -> None:
+def step_position_data(ctl: ControllerView, cmd: Any, now: float) -> None:
     """§10 4 (CW) and 5 (CCW): incremental move by the position data of command 2.
 
     The pulse count is the position data as shown in the format in force, taken as a count:
@@ -150,7 +151,7 @@ def step_position_data(ctl: Controller, cmd: Any, now: float) -> None:
     _move_by(ctl, motor, int(direction) * pulses, now)
 
 
-def _entry_number(ctl: Controller, cmd: Any) -> int:
+def _entry_number(ctl: ControllerView, cmd: Any) -> int:
     """The A entry a B form uses, and the sequence it continues (§10 B, B+(-))."""
     if "pn" in cmd.params():
         number = int(cmd.pn)
@@ -163,7 +164,7 @@ def _entry_number(ctl: Controller, cmd: Any) -> int:
 
 
 @handles("B{pn}", "B{pn}{mt}", "B", "B{mt}")
-def go_entry(ctl: Controller, cmd: Any, now: float) -> None:
+def go_entry(ctl: ControllerView, cmd: Any, now: float) -> None:
     """§10 B: absolute move to an entry of the A table; the sequence moves on."""
     motor = _motor_for_motion(ctl, cmd)
     if motor is None:
@@ -174,7 +175,7 @@ def go_entry(ctl: Controller, cmd: Any, now: float) -> None:
 
 
 @handles("B{pn}{dir}", "B{pn}{mt}{dir}", "B{dir}", "B{mt}{dir}")
-def step_entry(ctl: Controller, cmd: Any, now: float) -> None:
+def step_entry(ctl: ControllerView, cmd: Any, now: float) -> None:
     """§10 B+(-): incremental move by the absolute value of an entry (§10 B+(-) 注意点)."""
     motor = _motor_for_motion(ctl, cmd)
     if motor is None:
@@ -188,7 +189,7 @@ def step_entry(ctl: Controller, cmd: Any, now: float) -> None:
 
 
 @handles("7", "7{mt}", "8", "8{mt}")
-def jog(ctl: Controller, cmd: Any, now: float) -> None:
+def jog(ctl: ControllerView, cmd: Any, now: float) -> None:
     """§10 7 (CW) and 8 (CCW): turn at Low speed until S or SS."""
     motor = _motor_for_motion(ctl, cmd)
     if motor is not None:
@@ -197,7 +198,7 @@ def jog(ctl: Controller, cmd: Any, now: float) -> None:
 
 
 @handles("7*", "8*")
-def single_pulse(ctl: Controller, cmd: Any, now: float) -> None:
+def single_pulse(ctl: ControllerView, cmd: Any, now: float) -> None:
     """§10 7*, 8*: one pulse CW or CCW."""
     motor = _motor_for_motion(ctl, cmd)
     if motor is not None:
@@ -205,20 +206,18 @@ def single_pulse(ctl: Controller, cmd: Any, now: float) -> None:
         ctl.axes[motor].step(now, direction, ctl.settings.speed(motor), **_extras(ctl, motor))
 
 
-def _moving(ctl: Controller, now: float) -> int | None:
+def _moving(ctl: ControllerView, now: float) -> int | None:
     return ctl.moving_motor(now)
 
 
 @handles("S")
-def stop(ctl: Controller, cmd: Any, now: float) -> None:
+def stop(ctl: ControllerView, cmd: Any, now: float) -> None:
     """§10 S: stop at once. The motor that moves is stopped, whichever is selected."""
-    motor = _moving(ctl, now)
-    if motor is not None:
-        ctl.axes[motor].stop(now)
+    stop_moving(ctl, now)
 
 
 @handles("SS")
-def slow_stop(ctl: Controller, cmd: Any, now: float) -> None:
+def slow_stop(ctl: ControllerView, cmd: Any, now: float) -> None:
     """§10 SS: decelerate to Low speed, then stop."""
     motor = _moving(ctl, now)
     if motor is not None:
@@ -226,7 +225,7 @@ def slow_stop(ctl: Controller, cmd: Any, now: float) -> None:
 
 
 @handles("H", "L")
-def jog_level(ctl: Controller, cmd: Any, now: float) -> None:
+def jog_level(ctl: ControllerView, cmd: Any, now: float) -> None:
     """§10 H, L: a running 7/8 jog to High or Low speed; nothing happens otherwise."""
     motor = _moving(ctl, now)
     if motor is None:

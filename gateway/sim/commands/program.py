@@ -11,27 +11,27 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 from gateway.protocol.reply_values import PortByte, ProgramState
-from gateway.sim.commands.motion import stop as stop_motion
+from gateway.sim.actions import stop_moving
 from gateway.sim.dispatch import Refused, handles
 from gateway.sim.program import Machine
 
 if TYPE_CHECKING:
-    from gateway.sim.controller import Controller
+    from gateway.sim.controller_view import ControllerView
 
 
 @handles("I")
-def open_program(ctl: Controller, cmd: Any, now: float) -> None:
+def open_program(ctl: ControllerView, cmd: Any, now: float) -> None:
     """§10 I: the next bytes up to CR are the program text (the loop reads them raw)."""
     ctl.rt.awaiting_program = True
 
 
 @handles("IR")
-def program_text(ctl: Controller, cmd: Any, now: float) -> str:
+def program_text(ctl: ControllerView, cmd: Any, now: float) -> str:
     """§10 IR: the RAM program."""
     return ctl.rt.program
 
 
-def start_program(ctl: Controller, label: str | None, now: float) -> None:
+def start_program(ctl: ControllerView, label: str | None, now: float) -> None:
     """Run the RAM program from the start, or after ``/G{label}`` (§10 G, §10 GA).
 
     ``Refused`` (a command error) when RAM holds no program or the label is not in it
@@ -52,13 +52,13 @@ def start_program(ctl: Controller, label: str | None, now: float) -> None:
 
 
 @handles("G", "G{lb}")
-def run_program(ctl: Controller, cmd: Any, now: float) -> None:
+def run_program(ctl: ControllerView, cmd: Any, now: float) -> None:
     """§10 G: run the RAM program (refused while one runs: §11-3 5., by the rules)."""
     start_program(ctl, str(cmd.lb) if cmd.key == "G{lb}" else None, now)
 
 
 @handles("GAS", "GAR")
-def set_autostart(ctl: Controller, cmd: Any, now: float) -> None:
+def set_autostart(ctl: ControllerView, cmd: Any, now: float) -> None:
     """§10 GA: the autostart flag, written to EEPROM at once (no ``$B#*``)."""
     on = cmd.key == "GAS"
     ctl.rt.autostart = on
@@ -66,13 +66,13 @@ def set_autostart(ctl: Controller, cmd: Any, now: float) -> None:
 
 
 @handles("GA")
-def autostart(ctl: Controller, cmd: Any, now: float) -> int:
+def autostart(ctl: ControllerView, cmd: Any, now: float) -> int:
     """§10 GA: 1 = autostart on."""
     return int(ctl.rt.autostart)
 
 
 @handles("GS", "GC", "GE", "GES")
-def program_control(ctl: Controller, cmd: Any, now: float) -> None:
+def program_control(ctl: ControllerView, cmd: Any, now: float) -> None:
     """§10 GS, GC, GE, GES: pause, resume, end; with no program running nothing changes.
 
     GS pauses at a statement boundary: a wait under way (a motion, the timer) runs to its end
@@ -92,11 +92,11 @@ def program_control(ctl: Controller, cmd: Any, now: float) -> None:
             machine.end(ctl)
         ctl.rt.program_state = ProgramState.ENDED
         if cmd.key == "GES":
-            stop_motion(ctl, cmd, now)
+            stop_moving(ctl, now)
 
 
 @handles("GSS")
-def program_state(ctl: Controller, cmd: Any, now: float) -> ProgramState:
+def program_state(ctl: ControllerView, cmd: Any, now: float) -> ProgramState:
     """§10 GSS: the state; E (ended by an error) reads once, then 0."""
     state = ctl.rt.program_state
     if state is ProgramState.ERROR:
@@ -105,7 +105,7 @@ def program_state(ctl: Controller, cmd: Any, now: float) -> ProgramState:
 
 
 @handles("GN")
-def program_step(ctl: Controller, cmd: Any, now: float) -> int:
+def program_step(ctl: ControllerView, cmd: Any, now: float) -> int:
     """§10 GN: the '/' count of the statement that runs next (0 before any G).
 
     After ``/END`` it names the ``/END``; after a command error, the statement that failed.
@@ -114,24 +114,24 @@ def program_step(ctl: Controller, cmd: Any, now: float) -> int:
 
 
 @handles("GW{bf}{du}{dl}")
-def set_buffer(ctl: Controller, cmd: Any, now: float) -> None:
+def set_buffer(ctl: ControllerView, cmd: Any, now: float) -> None:
     """§10 GW form I: one data buffer byte."""
     ctl.rt.buffers[str(cmd.bf)] = int(cmd.du) << 4 | int(cmd.dl)
 
 
 @handles("GW{ct}{dt}")
-def set_counter(ctl: Controller, cmd: Any, now: float) -> None:
+def set_counter(ctl: ControllerView, cmd: Any, now: float) -> None:
     """§10 GW form II: one counter."""
     ctl.rt.counters[int(cmd.ct)] = int(cmd.dt)
 
 
 @handles("GR{bf}")
-def buffer(ctl: Controller, cmd: Any, now: float) -> PortByte:
+def buffer(ctl: ControllerView, cmd: Any, now: float) -> PortByte:
     """§10 GR form I: one data buffer byte (0 until written)."""
     return PortByte(ctl.rt.buffers.get(str(cmd.bf), 0))
 
 
 @handles("GR{ct}")
-def counter(ctl: Controller, cmd: Any, now: float) -> int:
+def counter(ctl: ControllerView, cmd: Any, now: float) -> int:
     """§10 GR form II: one counter (0 until written)."""
     return ctl.rt.counters.get(int(cmd.ct), 0)

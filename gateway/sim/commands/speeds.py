@@ -21,7 +21,7 @@ from gateway.sim.dispatch import Refused, handles
 from gateway.sim.memory import MotorSettings
 
 if TYPE_CHECKING:
-    from gateway.sim.controller import Controller
+    from gateway.sim.controller_view import ControllerView
 
 #: (attribute, lowest, highest) of the per-motor speed data (§10 OH, OL, OS, OC).
 _RANGES = {
@@ -32,7 +32,7 @@ _RANGES = {
 }
 
 
-def _set_motor_value(ctl: Controller, mnemonic: str, value: int, now: float) -> None:
+def _set_motor_value(ctl: ControllerView, mnemonic: str, value: int, now: float) -> None:
     name, low, high = _RANGES[mnemonic]
     if not low <= value <= high:
         raise Refused(f"{mnemonic} {value} outside {low}-{high}")
@@ -44,45 +44,45 @@ def _set_motor_value(ctl: Controller, mnemonic: str, value: int, now: float) -> 
     _retune(ctl, now)
 
 
-def _retune(ctl: Controller, now: float) -> None:
+def _retune(ctl: ControllerView, now: float) -> None:
     moving = ctl.moving_motor(now)
     if moving is not None:
         ctl.axes[moving].retune(now, ctl.settings.speed(moving))
 
 
-def _motor(ctl: Controller) -> MotorSettings:
+def _motor(ctl: ControllerView) -> MotorSettings:
     return ctl.settings.motors[ctl.selected]
 
 
 @handles("OH{hs}", "OL{ls}", "OS{ss}", "OC{dt}")
-def set_speed(ctl: Controller, cmd: Any, now: float) -> None:
+def set_speed(ctl: ControllerView, cmd: Any, now: float) -> None:
     """§10 OH, OL, OS, OC form I: set the selected motor's value."""
     value = next(iter(cmd.params().values()))
     _set_motor_value(ctl, cmd.mnemonic, int(value), now)
 
 
 @handles("OHI{id}", "OLI{id}", "OSI{id}")
-def increase_speed(ctl: Controller, cmd: Any, now: float) -> None:
+def increase_speed(ctl: ControllerView, cmd: Any, now: float) -> None:
     """§10 OH, OL, OS form III: add to the value (beyond the range: command error)."""
     name = _RANGES[cmd.mnemonic][0]
     _set_motor_value(ctl, cmd.mnemonic, getattr(_motor(ctl), name) + int(cmd.id), now)
 
 
 @handles("OHD{dd}", "OLD{dd}", "OSD{dd}")
-def decrease_speed(ctl: Controller, cmd: Any, now: float) -> None:
+def decrease_speed(ctl: ControllerView, cmd: Any, now: float) -> None:
     """§10 OH, OL, OS form IV: subtract from the value (below 1: command error)."""
     name = _RANGES[cmd.mnemonic][0]
     _set_motor_value(ctl, cmd.mnemonic, getattr(_motor(ctl), name) - int(cmd.dd), now)
 
 
 @handles("OH", "OL", "OS", "OC")
-def speed(ctl: Controller, cmd: Any, now: float) -> int:
+def speed(ctl: ControllerView, cmd: Any, now: float) -> int:
     """§10 OH, OL, OS, OC form II: the selected motor's value."""
     return int(getattr(_motor(ctl), _RANGES[cmd.mnemonic][0]))
 
 
 @handles("OX{xs}")
-def set_multiplier(ctl: Controller, cmd: Any, now: float) -> None:
+def set_multiplier(ctl: ControllerView, cmd: Any, now: float) -> None:
     """§10 OX: shared by both motors; the internal value is quantised by ``SpeedSettings``."""
     value = int(cmd.xs)
     if not OX_MIN <= value <= OX_MAX:
@@ -92,42 +92,42 @@ def set_multiplier(ctl: Controller, cmd: Any, now: float) -> None:
 
 
 @handles("OX")
-def multiplier(ctl: Controller, cmd: Any, now: float) -> int:
+def multiplier(ctl: ControllerView, cmd: Any, now: float) -> int:
     """§10 OX: the value as set (docs/manual-notes.md: the set value, not the quantised one)."""
     return ctl.settings.shared.ox
 
 
 @handles("N{pn}{sp},{pj}")
-def set_point(ctl: Controller, cmd: Any, now: float) -> None:
+def set_point(ctl: ControllerView, cmd: Any, now: float) -> None:
     """§10 N form I: one speed-change point."""
     ctl.settings.shared.points[int(cmd.pn) - 1] = SpeedPoint(int(cmd.sp), int(cmd.pj))
 
 
 @handles("NS")
-def arm_points(ctl: Controller, cmd: Any, now: float) -> None:
+def arm_points(ctl: ControllerView, cmd: Any, now: float) -> None:
     """§10 N form II: the next moves use the points."""
     ctl.settings.shared.points_on = True
 
 
 @handles("NR")
-def disarm_points(ctl: Controller, cmd: Any, now: float) -> None:
+def disarm_points(ctl: ControllerView, cmd: Any, now: float) -> None:
     """§10 N form IV: cancel NS."""
     ctl.settings.shared.points_on = False
 
 
 @handles("NC")
-def clear_points(ctl: Controller, cmd: Any, now: float) -> None:
+def clear_points(ctl: ControllerView, cmd: Any, now: float) -> None:
     """§10 N form III: every point back to 0."""
     ctl.settings.shared.points = [SpeedPoint() for _ in ctl.settings.shared.points]
 
 
 @handles("N")
-def points_armed(ctl: Controller, cmd: Any, now: float) -> int:
+def points_armed(ctl: ControllerView, cmd: Any, now: float) -> int:
     """§10 N form V: 1 while NS is in force."""
     return int(ctl.settings.shared.points_on)
 
 
 @handles("N{pn}")
-def point(ctl: Controller, cmd: Any, now: float) -> SpeedPoint:
+def point(ctl: ControllerView, cmd: Any, now: float) -> SpeedPoint:
     """§10 N form VI: one point."""
     return ctl.settings.shared.points[int(cmd.pn) - 1]

@@ -15,11 +15,11 @@ from gateway.sim.flags import Error
 from gateway.sim.memory import Baud
 
 if TYPE_CHECKING:
-    from gateway.sim.controller import Controller
+    from gateway.sim.controller_view import ControllerView
 
 
 @handles('""')
-def status(ctl: Controller, cmd: Any, now: float) -> StatusFlags:
+def status(ctl: ControllerView, cmd: Any, now: float) -> StatusFlags:
     """§10 "": moving is live; bits 1-3 are reported and then cleared."""
     moving = ctl.moving_motor(now) is not None
     errors = ctl.flags.read_status()
@@ -31,7 +31,7 @@ def status(ctl: Controller, cmd: Any, now: float) -> StatusFlags:
     )
 
 
-def _condition(ctl: Controller, errors: Error) -> ConditionFlags:
+def _condition(ctl: ControllerView, errors: Error) -> ConditionFlags:
     return ConditionFlags(
         communication_error=Error.COMMUNICATION in errors,
         limit_error=Error.LIMIT in errors,
@@ -44,13 +44,13 @@ def _condition(ctl: Controller, errors: Error) -> ConditionFlags:
 
 
 @handles("9")
-def condition(ctl: Controller, cmd: Any, now: float) -> ConditionFlags:
+def condition(ctl: ControllerView, cmd: Any, now: float) -> ConditionFlags:
     """§10 9 form I: bits 0-3 reported and cleared; step-out (bit 6) stays."""
     return _condition(ctl, ctl.flags.read_condition())
 
 
 @handles("9{bit}")
-def condition_bit(ctl: Controller, cmd: Any, now: float) -> int:
+def condition_bit(ctl: ControllerView, cmd: Any, now: float) -> int:
     """§10 9 form II: one bit, the mode number for bits 4 and 5; clears nothing."""
     bit = int(cmd.bit)
     if bit in (4, 5):
@@ -68,57 +68,57 @@ def condition_bit(ctl: Controller, cmd: Any, now: float) -> int:
 
 
 @handles("F{mt}")
-def select(ctl: Controller, cmd: Any, now: float) -> None:
+def select(ctl: ControllerView, cmd: Any, now: float) -> None:
     """§10 F: select the motor that commands without a suffix act on."""
     ctl.selected = int(cmd.mt)
 
 
 @handles("F")
-def selected(ctl: Controller, cmd: Any, now: float) -> int:
+def selected(ctl: ControllerView, cmd: Any, now: float) -> int:
     """§10 F: the selected motor."""
     return ctl.selected
 
 
 @handles("E{mode}")
-def set_mode(ctl: Controller, cmd: Any, now: float) -> None:
+def set_mode(ctl: ControllerView, cmd: Any, now: float) -> None:
     """§10 E: the operating mode (both motors); mode 1 counts encoder pulses (§7-4)."""
     ctl.settings.shared.mode = int(cmd.mode)
     ctl.configure_axes(now)
 
 
 @handles("E")
-def mode(ctl: Controller, cmd: Any, now: float) -> int:
+def mode(ctl: ControllerView, cmd: Any, now: float) -> int:
     """§10 E: the operating mode."""
     return ctl.settings.shared.mode
 
 
 @handles("EP1", "EP0")
-def set_position_format(ctl: Controller, cmd: Any, now: float) -> None:
+def set_position_format(ctl: ControllerView, cmd: Any, now: float) -> None:
     """§10 EP: signed or unsigned management of the same 24-bit counters."""
     signed = cmd.key == "EP1"
     ctl.settings.shared.positions = PositionFormat.SIGNED if signed else PositionFormat.UNSIGNED
 
 
 @handles("EP")
-def position_format(ctl: Controller, cmd: Any, now: float) -> int:
+def position_format(ctl: ControllerView, cmd: Any, now: float) -> int:
     """§10 EP: 1 signed, 0 unsigned (the setting, whatever the mode)."""
     return int(ctl.settings.shared.positions is PositionFormat.SIGNED)
 
 
 @handles("ED1", "ED0")
-def set_pulse_output(ctl: Controller, cmd: Any, now: float) -> None:
+def set_pulse_output(ctl: ControllerView, cmd: Any, now: float) -> None:
     """§10 ED: 2P (CW/CCW) or 1P (pulse and direction) outputs."""
     ctl.settings.shared.pulse_output = 1 if cmd.key == "ED1" else 0
 
 
 @handles("ED")
-def pulse_output(ctl: Controller, cmd: Any, now: float) -> int:
+def pulse_output(ctl: ControllerView, cmd: Any, now: float) -> int:
     """§10 ED: the pulse output method."""
     return ctl.settings.shared.pulse_output
 
 
 @handles("EE", "EL", "ER", "SUM")
-def framing_switch(ctl: Controller, cmd: Any, now: float) -> int:
+def framing_switch(ctl: ControllerView, cmd: Any, now: float) -> int:
     """§10 EE, EL, ER, SUM queries: 1 on, 0 off."""
     framing = ctl.framing
     on = {
@@ -131,7 +131,7 @@ def framing_switch(ctl: Controller, cmd: Any, now: float) -> int:
 
 
 @handles("ES{bp}")
-def set_baud(ctl: Controller, cmd: Any, now: float) -> None:
+def set_baud(ctl: ControllerView, cmd: Any, now: float) -> None:
     """§10 ES: the new rate is written to EEPROM and applies after this reply."""
     baud = Baud(int(cmd.bp))
     ctl.eeprom.write("es", baud.value)
@@ -141,12 +141,12 @@ def set_baud(ctl: Controller, cmd: Any, now: float) -> None:
 
 
 @handles("ES")
-def baud(ctl: Controller, cmd: Any, now: float) -> int:
+def baud(ctl: ControllerView, cmd: Any, now: float) -> int:
     """§10 ES: the current rate's digit."""
     return ctl.baud.value
 
 
 @handles("V")
-def version(ctl: Controller, cmd: Any, now: float) -> Version:
+def version(ctl: ControllerView, cmd: Any, now: float) -> Version:
     """§10 V: the ROM version."""
     return ctl.version

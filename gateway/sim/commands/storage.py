@@ -11,51 +11,40 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 from gateway.protocol.framing import EEPROM_DONE
+from gateway.sim.actions import write_eeprom
 from gateway.sim.dispatch import handles
 from gateway.sim.eeprom import ERASE_SECONDS, WRITE_SECONDS
 from gateway.sim.memory import POSITION_TABLE_SIZE, Settings
 
 if TYPE_CHECKING:
-    from gateway.sim.controller import Controller
+    from gateway.sim.controller_view import ControllerView
 
 
-def write_eeprom(ctl: Controller, key: str) -> float:
-    """Write the ``AW`` or ``DW`` area now; the seconds the write takes (``$B#*`` then).
-
-    The program's ``/WAW`` and ``/WDW`` use it too, and wait that long instead (§12 /WAW).
-    """
-    if key == "DW":
-        ctl.eeprom.write("dw", ctl.settings.dw_image())
-    else:
-        ctl.eeprom.write("aw", list(ctl.table))
-    return WRITE_SECONDS[key]
-
-
-def _written(ctl: Controller, key: str, now: float) -> None:
+def _written(ctl: ControllerView, key: str, now: float) -> None:
     ctl.later(WRITE_SECONDS[key], EEPROM_DONE, now)
 
 
 @handles("DW")
-def write_settings(ctl: Controller, cmd: Any, now: float) -> None:
+def write_settings(ctl: ControllerView, cmd: Any, now: float) -> None:
     """§10 DW: every DW target of both motors to EEPROM."""
     ctl.later(write_eeprom(ctl, "DW"), EEPROM_DONE, now)
 
 
 @handles("AW")
-def write_table(ctl: Controller, cmd: Any, now: float) -> None:
+def write_table(ctl: ControllerView, cmd: Any, now: float) -> None:
     """§10 AW: the 1000 A entries to EEPROM."""
     ctl.later(write_eeprom(ctl, "AW"), EEPROM_DONE, now)
 
 
 @handles("IW")
-def write_program(ctl: Controller, cmd: Any, now: float) -> None:
+def write_program(ctl: ControllerView, cmd: Any, now: float) -> None:
     """§10 IW: the RAM user program to EEPROM."""
     ctl.eeprom.write("iw", ctl.rt.program)
     _written(ctl, "IW", now)
 
 
 @handles("DL")
-def load_settings(ctl: Controller, cmd: Any, now: float) -> None:
+def load_settings(ctl: ControllerView, cmd: Any, now: float) -> None:
     """§10 DL: the DW targets from EEPROM (factory values if DW never ran).
 
     RAM-only settings (the N points, QSE) are not DW targets and keep their values. The reply
@@ -73,20 +62,20 @@ def load_settings(ctl: Controller, cmd: Any, now: float) -> None:
 
 
 @handles("AL")
-def load_table(ctl: Controller, cmd: Any, now: float) -> None:
+def load_table(ctl: ControllerView, cmd: Any, now: float) -> None:
     """§10 AL: the A entries from EEPROM (all 0 if AW never ran)."""
     image = ctl.eeprom.image.aw
     ctl.table = list(image) if image else [0] * POSITION_TABLE_SIZE
 
 
 @handles("IL")
-def load_program(ctl: Controller, cmd: Any, now: float) -> None:
+def load_program(ctl: ControllerView, cmd: Any, now: float) -> None:
     """§10 IL: the RAM program replaced by the IW copy (empty if IW never ran)."""
     ctl.rt.program = ctl.eeprom.image.iw or ""
 
 
 @handles("EE///")
-def erase(ctl: Controller, cmd: Any, now: float) -> None:
+def erase(ctl: ControllerView, cmd: Any, now: float) -> None:
     """§10 EE///: erase everything AW, DW, IW, GA and ES wrote; silent until ``$B#*``.
 
     RAM keeps its values: the factory settings come back at the next power-on (§10 EE///).

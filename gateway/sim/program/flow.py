@@ -12,12 +12,12 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
-from gateway.protocol.params import jump_count
+from gateway.protocol.text_params import jump_count
 from gateway.sim.dispatch import Refused
 from gateway.sim.flags import Error
 
 if TYPE_CHECKING:
-    from gateway.sim.controller import Controller
+    from gateway.sim.controller_view import ControllerView
 
 __all__ = ["ERROR_BITS", "compare", "condition", "errors_present", "land"]
 
@@ -55,7 +55,7 @@ def compare(left: int, sign: str, right: int) -> bool:
     return left == right
 
 
-def errors_present(ctl: Controller, bit: int | None = None) -> bool:
+def errors_present(ctl: ControllerView, bit: int | None = None) -> bool:
     """An error in the condition flags (bits 0, 1, 2, 6 of ``9``), or in one of them."""
     if bit == 6:
         return ctl.flags.step_out
@@ -64,7 +64,7 @@ def errors_present(ctl: Controller, bit: int | None = None) -> bool:
     return bool(ctl.flags.condition & ERROR_BITS) or ctl.flags.step_out
 
 
-def _input(ctl: Controller, bit: str, t: float) -> bool:
+def _input(ctl: ControllerView, bit: str, t: float) -> bool:
     """``/JO`` bits: 0-7 inputs, 8/9 INP1/INP2, A/B/C the selected motor's ORG/CW/CCW."""
     if bit in "ABC":
         # §12 /JO 注意: the sensors of the motor chosen with F, read when the jump runs.
@@ -76,11 +76,11 @@ def _input(ctl: Controller, bit: str, t: float) -> bool:
     return bool(ctl.rt.inputs >> number & 1)
 
 
-def _buffer(ctl: Controller, name: Any) -> int:
+def _buffer(ctl: ControllerView, name: Any) -> int:
     return ctl.rt.buffers.get(str(name), 0)
 
 
-def condition(ctl: Controller, cmd: Any, t: float) -> tuple[bool, bool]:
+def condition(ctl: ControllerView, cmd: Any, t: float) -> tuple[bool, bool]:
     """Whether the jump ``cmd`` is taken at ``t``, and whether that depends on motion.
 
     The second value tells the machine that the answer can change while a motor turns

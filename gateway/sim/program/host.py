@@ -15,19 +15,19 @@ from typing import TYPE_CHECKING, Any
 from gateway.protocol.framing import framing_switch
 from gateway.protocol.params import PositionFormat
 from gateway.protocol.replies import encode_reply
-from gateway.sim.dispatch import FRAMING_KEYS, HANDLERS, Refused
+from gateway.sim.dispatch import HANDLERS, Refused
 from gateway.sim.program.output import query_output
 
 if TYPE_CHECKING:
-    from gateway.sim.controller import Controller
+    from gateway.sim.controller_view import ControllerView
 
 __all__ = ["execute"]
 
 
-def execute(ctl: Controller, cmd: Any, t: float) -> None:
+def execute(ctl: ControllerView, cmd: Any, t: float) -> None:
     """Run the host command ``cmd`` as a program statement at ``t``."""
     ctl.program_rules(cmd, t)
-    if cmd.key in FRAMING_KEYS:
+    if cmd.form.switches_framing:
         # EE/EL/ER/SUM in a program: no reply of its own to frame, so only the switch.
         switch = framing_switch(ctl.framing, cmd.wire())
         if switch.refused:  # EE1 with SUM1 on, or SUM1 with EE1 on (§10 EE, SUM)

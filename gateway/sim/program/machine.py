@@ -42,7 +42,7 @@ from gateway.sim.program.timing import (
 )
 
 if TYPE_CHECKING:
-    from gateway.sim.controller import Controller
+    from gateway.sim.controller_view import ControllerView
 
 __all__ = ["Machine"]
 
@@ -86,7 +86,7 @@ class Machine:
 
     # ------------------------------------------------------------------ host control
 
-    def start(self, ctl: Controller, step: int, now: float) -> None:
+    def start(self, ctl: ControllerView, step: int, now: float) -> None:
         """Run from ``step``; the first statement executes one statement time after ``now``."""
         ctl.rt.step = step
         ctl.rt.program_state = ProgramState.RUNNING
@@ -113,14 +113,14 @@ class Machine:
         self._cycle_motion = False
         self.time = max(self.time, now)
 
-    def end(self, ctl: Controller) -> None:
+    def end(self, ctl: ControllerView) -> None:
         """The program ends now (``/END``, ``/?``, ``GE``, ``GES``); GN keeps its step."""
         ctl.rt.program_state = ProgramState.ENDED
         self.wait = None
 
     # ------------------------------------------------------------------ time
 
-    def next_time(self, ctl: Controller) -> float | None:
+    def next_time(self, ctl: ControllerView) -> float | None:
         """When the machine next acts by itself; None while it only waits for the outside."""
         state = ctl.rt.program_state
         if state not in _ACTIVE:
@@ -150,7 +150,7 @@ class Machine:
             events.append(timer_end(timer))
         return max(self.time, min(events)) if events else None
 
-    def run(self, ctl: Controller, now: float) -> None:
+    def run(self, ctl: ControllerView, now: float) -> None:
         """Execute everything due by ``now``: wait ends and statements, in time order."""
         for _ in range(_BUDGET):
             t = self.next_time(ctl)
@@ -165,7 +165,7 @@ class Machine:
                     self._wake_up(t)  # an event it sleeps on has come: look again
                 self._execute(ctl, t)
 
-    def _check_wait(self, ctl: Controller, t: float) -> None:
+    def _check_wait(self, ctl: ControllerView, t: float) -> None:
         if self.wait is Wait.MOTION:
             if ctl.moving_motor(t) is not None:
                 return  # a search goes on with its next step
@@ -183,7 +183,7 @@ class Machine:
 
     # ------------------------------------------------------------------ statements
 
-    def _execute(self, ctl: Controller, t: float) -> None:
+    def _execute(self, ctl: ControllerView, t: float) -> None:
         step = ctl.rt.step
         self.current = step
         self.jump_to, self.pure, self.reads_motion = None, False, False
@@ -205,7 +205,7 @@ class Machine:
             ctl.rt.step = self.jump_to
         self._note_cycle(step, ctl.rt.step)
 
-    def _parse(self, ctl: Controller, step: int) -> Command:
+    def _parse(self, ctl: ControllerView, step: int) -> Command:
         """The statement at ``step``; parsed when it runs, in the position format in force."""
         body, positions = self.bodies[step - 1], ctl.position_format
         found = self._parsed.get((body, positions))
@@ -219,7 +219,7 @@ class Machine:
             raise Refused(f"/{body}: {found}")
         return found
 
-    def _fail(self, ctl: Controller, step: int, t: float) -> None:
+    def _fail(self, ctl: ControllerView, step: int, t: float) -> None:
         """A command error inside the program: it ends there (§10 G, GSS, GN, ER)."""
         ctl.rt.step = step
         ctl.rt.program_state = ProgramState.ERROR

@@ -17,27 +17,27 @@ from gateway.protocol.framing import (
 )
 
 if TYPE_CHECKING:
-    from gateway.sim.controller import Controller
+    from gateway.sim.controller_view import ControllerView
 
 __all__ = ["buffer_message", "counter_message", "error_mark", "query_output", "text_message"]
 
 
-def query_output(ctl: Controller, data: str) -> bytes:
+def query_output(ctl: ControllerView, data: str) -> bytes:
     """A query run as ``/cmd``: its normal reply without the '>' (§11-3), ``$B#data`` CR."""
     return encode_unsolicited(ctl.body, data, ctl.framing, series=ctl.series)
 
 
-def text_message(ctl: Controller, text: str) -> bytes:
+def text_message(ctl: ControllerView, text: str) -> bytes:
     """``/CO{text}``: '>' text CR (§12 /CO example ``>123ABC*+-%`` CR)."""
     return encode_program_message(text, ctl.framing)
 
 
-def counter_message(ctl: Controller, counter: int, count: int) -> bytes:
+def counter_message(ctl: ControllerView, counter: int, count: int) -> bytes:
     """``/CC{ct}``: '>' '$' B# CT and five decimal digits, CR (§12 /CC 転送書式)."""
     return encode_program_message(f"{ctl.series.value}{ctl.body}{counter}{count:05d}", ctl.framing)
 
 
-def buffer_message(ctl: Controller, value: int) -> bytes:
+def buffer_message(ctl: ControllerView, value: int) -> bytes:
     """``/O3{bf}``: '>' '$' B# DU DL CR.
 
     §12 /O prints no transfer format for PT 3 (the image is missing); only its fields DU DL are

@@ -11,16 +11,14 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 from gateway.protocol.registry import parse
-from gateway.sim.commands.motion import stop as stop_motion
-from gateway.sim.commands.storage import write_eeprom
+from gateway.sim.actions import stop_moving, write_eeprom
 from gateway.sim.dispatch import HANDLERS, Refused
 from gateway.sim.program import flow
 from gateway.sim.program.output import buffer_message, counter_message, text_message
-from gateway.sim.program.timing import MAX_CALLS, Wait, start_timer
+from gateway.sim.program.timing import MAX_CALLS, StatementRun, Wait, start_timer
 
 if TYPE_CHECKING:
-    from gateway.sim.controller import Controller
-    from gateway.sim.program.machine import Machine
+    from gateway.sim.controller_view import ControllerView
 
 __all__ = ["execute"]
 
@@ -47,7 +45,7 @@ _JUMPS = frozenset(
 _COUNTER_MAX = 65535
 
 
-def execute(m: Machine, ctl: Controller, cmd: Any, t: float) -> None:
+def execute(m: StatementRun, ctl: ControllerView, cmd: Any, t: float) -> None:
     """Carry out the program-only statement ``cmd`` (§12)."""
     key: str = cmd.key
     if key in _JUMPS:
@@ -70,7 +68,7 @@ def execute(m: Machine, ctl: Controller, cmd: Any, t: float) -> None:
     elif key == "/?":
         if flow.errors_present(ctl):
             # §12 /?, §11-4 example 3: the motor stops at once and the program ends there.
-            stop_motion(ctl, cmd, t)
+            stop_moving(ctl, t)
             ctl.rt.step = m.current
             m.end(ctl)
     elif key in ("/T{dt}", "/TB{dt}", "/TS{dt}"):
@@ -92,7 +90,7 @@ def execute(m: Machine, ctl: Controller, cmd: Any, t: float) -> None:
         _buffer_op(ctl, cmd, t)
 
 
-def _jump(m: Machine, ctl: Controller, cmd: Any, t: float) -> None:
+def _jump(m: StatementRun, ctl: ControllerView, cmd: Any, t: float) -> None:
     taken, m.reads_motion = flow.condition(ctl, cmd, t)
     call = cmd.key == "/SC{jump}"
     m.pure = not call
@@ -106,7 +104,7 @@ def _jump(m: Machine, ctl: Controller, cmd: Any, t: float) -> None:
     m.jump_to = target
 
 
-def _timer(m: Machine, ctl: Controller, key: str, tenths: int, t: float) -> None:
+def _timer(m: StatementRun, ctl: ControllerView, key: str, tenths: int, t: float) -> None:
     if key == "/TS{dt}":
         m.stop_wait = tenths  # used after each NULL from now on (§12 /TS)
         return
@@ -115,7 +113,7 @@ def _timer(m: Machine, ctl: Controller, key: str, tenths: int, t: float) -> None
         m.wait = Wait.TIMER  # §12 /T: wait for time-up; /TB goes on at once (for /JT)
 
 
-def _counter(ctl: Controller, cmd: Any, t: float) -> None:
+def _counter(ctl: ControllerView, cmd: Any, t: float) -> None:
     counters = ctl.rt.counters
     ct = int(cmd.ct)
     count = counters.get(ct, 0)
@@ -129,7 +127,7 @@ def _counter(ctl: Controller, cmd: Any, t: float) -> None:
         ctl.emit(t, counter_message(ctl, ct, count))
 
 
-def _clear_errors(ctl: Controller, cmd: Any) -> None:
+def _clear_errors(ctl: ControllerView, cmd: Any) -> None:
     """§12 /EC: bits 0, 1, 2, 6 of the condition flags (all, or the one named) to 0."""
     flags = ctl.flags
     if cmd.key == "/EC":
@@ -143,7 +141,7 @@ def _clear_errors(ctl: Controller, cmd: Any) -> None:
         flags.condition &= ~type(flags.condition)(1 << bit)
 
 
-def _out(ctl: Controller, cmd: Any, t: float) -> None:
+def _out(ctl: ControllerView, cmd: Any, t: float) -> None:
     value = ctl.rt.buffers.get(str(cmd.bf), 0)
     if int(cmd.pt) == 3:
         ctl.emit(t, buffer_message(ctl, value))
@@ -152,7 +150,7 @@ def _out(ctl: Controller, cmd: Any, t: float) -> None:
     HANDLERS["D{du}{dl}"](ctl, parse(f"D{value:02X}"), t)
 
 
-def _buffer_op(ctl: Controller, cmd: Any, t: float) -> None:
+def _buffer_op(ctl: ControllerView, cmd: Any, t: float) -> None:
     """/AND, /OR, /LD, /BS, /RR, /RL, /I1, /IL: one byte buffer A-F (§12)."""
     buffers = ctl.rt.buffers
     name = str(cmd.bf)

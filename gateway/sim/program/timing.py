@@ -8,16 +8,17 @@ that message belongs to the host's ``T`` form I (§10 T).
 from __future__ import annotations
 
 from enum import Enum
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol
 
 from gateway.sim.runtime import Timer
 
 if TYPE_CHECKING:
-    from gateway.sim.controller import Controller
+    from gateway.sim.controller_view import ControllerView
 
 __all__ = [
     "MAX_CALLS",
     "STEP_SECONDS",
+    "StatementRun",
     "Wait",
     "motion_end",
     "start_timer",
@@ -39,17 +40,42 @@ class Wait(Enum):
     UNTIL = "until"  # /WAW, /WDW: the EEPROM write has ended (§12 /WAW)
 
 
+class StatementRun(Protocol):
+    """What a statement reads and sets of the run it belongs to (``machine.Machine``): where it
+    stands, where it goes next and what it waits for. The machine acts on these after each
+    statement; the statements never drive the machine themselves, except to end it."""
+
+    labels: dict[str, int]
+    current: int  # the step being executed
+    jump_to: int | None  # set by a statement that jumps
+    pure: bool  # set by a statement that changed nothing (a jump, a label)
+    reads_motion: bool  # set by a jump whose answer changes while a motor turns
+    wait: Wait | None
+    until: float  # end of a Wait.UNTIL
+    calls: list[int]  # return steps of /SC
+    stop_wait: int  # /TS: tenths of a second after each NULL wait
+
+    @property
+    def size(self) -> int:
+        """Number of statements."""
+        ...
+
+    def end(self, ctl: ControllerView) -> None:
+        """The program ends now; GN keeps its step."""
+        ...
+
+
 def timer_end(timer: Timer) -> float:
     """Simulated time at which ``timer`` runs out (§10 T: TIME x 100 ms)."""
     return timer.started + timer.tenths / 10
 
 
-def start_timer(ctl: Controller, tenths: int, t: float) -> None:
+def start_timer(ctl: ControllerView, tenths: int, t: float) -> None:
     """Start the internal timer for the program, without ``$B#T`` (§12 /T, /TB, /TS)."""
     ctl.rt.timer = Timer(started=t, tenths=tenths, report=False)
 
 
-def motion_end(ctl: Controller) -> float | None:
+def motion_end(ctl: ControllerView) -> float | None:
     """When the running motion (or the step of a search) ends; None if no motor turns.
 
     ``math.inf`` for a motion nothing ends by itself (a 7/8 jog without a limit in its way).

@@ -1,4 +1,4 @@
-"""Axes as users act on them: move, home, jog, step, stop, speed, errors (issue 5).
+"""Axes as users act on them: move, home, jog, step, stop, speed, errors.
 
 Every check a request can fail is made before anything is sent: the lease (the axis and its
 controller), the controller online and not moving (§2: its two motors never move together; a
@@ -25,26 +25,31 @@ stop            ``S`` immediate, ``SS`` decelerate to Low speed then stop (§10 
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
 
 from gateway.bus.requests import TransactionResult
 from gateway.bus.scheduler import LinkState
 from gateway.bus.state_types import ErrorKind
 from gateway.errors import ConflictError, DeviceError, InvalidInputError
+from gateway.protocol import commands as cmd
 from gateway.protocol.models import Command
 from gateway.protocol.params import UNSIGNED_MAX
-from gateway.protocol.registry import parse
 from gateway.protocol.speeds import SpeedSettings
-from gateway.service.axis_speeds import (
+from gateway.service.axes.limit_jog import LimitJogs
+from gateway.service.axes.position_format import PositionFormats, check_target, position_data
+from gateway.service.axes.soft_limits import has_soft_limits, jog_limit
+from gateway.service.axes.speeds import (
     QUERIES,
     QUERIES_WHILE_MOVING,
-    SpeedChange,
     SpeedView,
     settings_from,
     speed_view,
     update_commands,
 )
-from gateway.service.axis_types import (
+from gateway.service.leases import Leases
+from gateway.service.operations.registry import Operation, Operations
+from gateway.service.operations.terms import (
     Direction,
     HomeMethod,
     JogSpeed,
@@ -52,13 +57,8 @@ from gateway.service.axis_types import (
     StopResult,
     Unit,
 )
-from gateway.service.gateway import Gateway
-from gateway.service.leases import Leases
-from gateway.service.limit_jog import LimitJogs
-from gateway.service.operation_types import frames_of
-from gateway.service.operations import Operation, Operations
-from gateway.service.position_format import PositionFormats, check_target, position_data
-from gateway.service.soft_limits import has_soft_limits, jog_limit
+from gateway.service.operations.types import frames_of
+from gateway.service.runtime.runtime import Runtime
 from gateway.service.topology import AxisRef
 from gateway.service.views import AxisView, axis_view
 
@@ -74,14 +74,21 @@ __all__ = [
 
 
 _STOP = {StopMode.IMMEDIATE: "S", StopMode.DECELERATE: "SS"}
-_JOG = {Direction.CW: "7", Direction.CCW: "8"}
-_STEP = {Direction.CW: "7*", Direction.CCW: "8*"}
+_JOG = {Direction.CW: cmd.jog_cw, Direction.CCW: cmd.jog_ccw}
+_STEP = {Direction.CW: cmd.step_cw, Direction.CCW: cmd.step_ccw}
+_HOME: dict[HomeMethod, cmd.HomeMethod] = {
+    HomeMethod.SEARCH_1: "0",
+    HomeMethod.HIGH_2: "0A",
+    HomeMethod.HIGH_1: "0H",
+    HomeMethod.SEARCH_2: "0R",
+    HomeMethod.Z_PHASE: "0Z",
+}
 
 
 class AxisService:
     """Every action on an axis; the API's routes call these."""
 
-    def __init__(self, gateway: Gateway, operations: Operations, leases: Leases) -> None:
+    def __init__(self, gateway: Runtime, operations: Operations, leases: Leases) -> None:
         self.gateway = gateway
         self.operations = operations
         self.leases = leases
@@ -112,7 +119,7 @@ class AxisService:
     async def fresh(self, ident: str) -> AxisView:
         """Read status and position now (``""``, ``6{mt}``) and return the new view."""
         ref = self.ref(ident)
-        await self._submit(ref, [parse(""), parse(f"6{ref.motor}")], motor=None)
+        await self._submit(ref, [cmd.status(), cmd.position(ref.motor)], motor=None)
         return self.view(ref.id)
 
     def position(self, ident: str) -> int | None:
@@ -157,9 +164,9 @@ class AxisService:
             target = value
         check_target(ref, target, fmt)
         if relative:
-            moves = [position_data(abs(value), fmt), parse("4" if value > 0 else "5")]
+            moves = [position_data(abs(value), fmt), cmd.move_cw() if value > 0 else cmd.move_ccw()]
         else:
-            moves = [position_data(target, fmt), parse("3")]
+            moves = [position_data(target, fmt), cmd.move_to_position_data()]
         request = {"position": position, "relative": relative, "unit": unit.value}
         step = value if relative else None
         return await self._run(ref, "move", request, moves, target=target, step=step, holder=holder)
@@ -169,9 +176,9 @@ class AxisService:
         ref = self.ref(ident)
         self._may_act(ref, holder)
         if method is HomeMethod.Z_PHASE:  # 0Z acts on the selected motor, no MT form (§10 0Z)
-            commands = [parse(f"F{ref.motor}"), parse("0Z")]
+            commands = [cmd.select_motor(ref.motor), cmd.home("0Z")]
         else:
-            commands = [parse(method.value)]
+            commands = [cmd.home(_HOME[method])]
         request = {"method": method.value}
         return await self._run(ref, "home", request, commands, target=0, holder=holder)
 
@@ -200,7 +207,8 @@ class AxisService:
             # The same jog: only its speed changes (§10 H, L work while turning); a setting
             # from the network, refused in local control like any other.
             self._remote(ref, "change the jog speed of")
-            await self._submit(ref, [parse("H" if speed is JogSpeed.HIGH else "L")], motor=None)
+            jog_speed = cmd.jog_high() if speed is JogSpeed.HIGH else cmd.jog_low()
+            await self._submit(ref, [jog_speed], motor=None)
             active.request["speed"] = speed.value
             return active
         self._may_act(ref, holder)
@@ -211,9 +219,9 @@ class AxisService:
             if limit is not None:
                 current = await self._current(ref)
                 return await self._limit_jogs.start(ref, request, current, limit, fmt, holder)
-        commands = [parse(_JOG[direction])]
+        commands = [_JOG[direction]()]
         if speed is JogSpeed.HIGH:
-            commands.append(parse("H"))
+            commands.append(cmd.jog_high())
         return await self._run(ref, "jog", request, commands, holder=holder)
 
     async def step(self, ident: str, direction: Direction, *, holder: str) -> Operation:
@@ -224,7 +232,7 @@ class AxisService:
         target = await self._current(ref) + (1 if direction is Direction.CW else -1)
         check_target(ref, target, fmt)
         request = {"direction": direction.value}
-        commands = [parse(_STEP[direction])]
+        commands = [_STEP[direction]()]
         step = 1 if direction is Direction.CW else -1
         return await self._run(
             ref, "step", request, commands, target=target, step=step, holder=holder
@@ -270,19 +278,20 @@ class AxisService:
                 "OC cannot be read while a motor moves (§10 OC)",
                 field="oc",
             )
-        result = await self._submit(ref, [parse(n) for n in names], motor=ref.motor)
+        result = await self._submit(ref, [cmd.speed(n) for n in names], motor=ref.motor)
         settings = settings_from(result, names, known.oc if known else None)
         self._speeds[ref.id] = settings
         return speed_view(ref.id, settings, oc_cached=moving)
 
-    async def set_speed(self, ident: str, change: SpeedChange, *, holder: str) -> SpeedView:
-        """Set speed data after checking ranges and the S-curve rule (§7-1), then read back."""
+    async def set_speed(self, ident: str, change: Mapping[str, int], *, holder: str) -> SpeedView:
+        """Set the speed data given (``oh``, ``ol``, ``os``, ``oc``, ``ox``) after checking
+        ranges and the S-curve rule (§7-1), then read them back."""
         ref = self.ref(ident)
         self._may_act(ref, holder, what="change the speed of")
         current = await self.speed(ref.id)
         now = SpeedSettings(current.oh, current.ol, current.os, current.oc, current.ox)
         _, commands = update_commands(now, change)
-        reads = [parse(n) for n in QUERIES]
+        reads = [cmd.speed(n) for n in QUERIES]
         result = await self._submit(ref, [*commands, *reads], motor=ref.motor)
         settings = settings_from(result, QUERIES)
         self._speeds[ref.id] = settings
@@ -338,7 +347,7 @@ class AxisService:
         state = self.gateway.state.axis(ref.loop, ref.body, ref.motor)
         if state.position is not None and not state.stale:
             return state.position
-        result = await self._submit(ref, [parse(f"6{ref.motor}")], motor=None)
+        result = await self._submit(ref, [cmd.position(ref.motor)], motor=None)
         if not isinstance(result.value, int):
             raise DeviceError(f"the position of {ref.id} could not be read", outcome="not_done")
         return result.value

@@ -16,20 +16,15 @@ read the result back form one transaction, so nothing else runs between them.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, Field
 
 from gateway.bus.requests import ReplyKind, TransactionResult
 from gateway.errors import ConflictError, DeviceError, InvalidInputError
+from gateway.protocol import commands as cmd
 from gateway.protocol.models import Command
-from gateway.protocol.registry import parse
 from gateway.protocol.speeds import (
-    OC_MAX,
-    OS_MAX,
-    OX_MAX,
-    OX_MIN,
-    SPEED_DATA_MAX,
     SpeedSettings,
     speed_constraint_violation,
 )
@@ -37,7 +32,6 @@ from gateway.protocol.speeds import (
 __all__ = [
     "QUERIES",
     "QUERIES_WHILE_MOVING",
-    "SpeedChange",
     "SpeedView",
     "settings_from",
     "speed_view",
@@ -45,9 +39,9 @@ __all__ = [
 ]
 
 #: The reads of a speed view, in the order of ``SpeedSettings`` (§10 OH, OL, OS, OC, OX).
-QUERIES = ("OH", "OL", "OS", "OC", "OX")
+QUERIES: tuple[cmd.SpeedName, ...] = ("OH", "OL", "OS", "OC", "OX")
 #: ``OC`` (the query too) is refused while a motor moves (§10 OC: 動作中 ×).
-QUERIES_WHILE_MOVING = ("OH", "OL", "OS", "OX")
+QUERIES_WHILE_MOVING: tuple[cmd.SpeedName, ...] = ("OH", "OL", "OS", "OX")
 
 
 class SpeedView(BaseModel):
@@ -73,20 +67,6 @@ class SpeedView(BaseModel):
     )
     frames: list[str] = Field(
         default_factory=list, description="the setting frames a PUT sent (without the CR)"
-    )
-
-
-class SpeedChange(BaseModel):
-    """New speed data; the fields left out keep their value."""
-
-    model_config = ConfigDict(extra="forbid", strict=True)
-
-    oh: int | None = Field(None, ge=1, le=SPEED_DATA_MAX, description="High speed data (§10 OH)")
-    ol: int | None = Field(None, ge=1, le=SPEED_DATA_MAX, description="Low speed data (§10 OL)")
-    os: int | None = Field(None, ge=1, le=OS_MAX, description="acceleration data (§10 OS)")
-    oc: int | None = Field(None, ge=0, le=OC_MAX, description="S-curve rate % (§10 OC)")
-    ox: int | None = Field(
-        None, ge=OX_MIN, le=OX_MAX, description="frequency multiplier data (§10 OX), both motors"
     )
 
 
@@ -141,14 +121,14 @@ def settings_from(
 
 
 def update_commands(
-    current: SpeedSettings, change: SpeedChange
+    current: SpeedSettings, given: Mapping[str, int]
 ) -> tuple[SpeedSettings, list[Command]]:
-    """The settings after ``change`` and the set commands that get there, in a safe order.
+    """The settings after the ``given`` speed data (``oh``, ``ol``, ``os``, ``oc``, ``ox``;
+    the others keep their value) and the set commands that get there, in a safe order.
 
     ``InvalidInputError`` naming the field and the rule when the result breaks the S-curve
     inequality (§7-1, §10 OC/OH/OL).
     """
-    given = change.model_dump(exclude_none=True)
     if not given:
         raise InvalidInputError(
             "no speed data given", field="body", rule="give at least one of oh, ol, os, oc, ox"
@@ -162,13 +142,16 @@ def update_commands(
     # With OC = 0 the inequality holds whatever OH and OL are: clear an S-curve in use first.
     reset = current.oc > 0 and ("oh" in given or "ol" in given)
     if reset:
-        commands.append(parse("OC0"))
+        commands.append(cmd.set_speed("OC", 0))
     for name in ("oh", "ol", "os", "ox"):
         if name in given:
-            commands.append(parse(f"{name.upper()}{given[name]}"))
+            commands.append(cmd.set_speed(_SPEED_NAMES[name], given[name]))
     if ("oc" in given or reset) and not (reset and new.oc == 0):
-        commands.append(parse(f"OC{new.oc}"))
+        commands.append(cmd.set_speed("OC", new.oc))
     return new, commands
+
+
+_SPEED_NAMES: dict[str, cmd.SpeedName] = {"oh": "OH", "ol": "OL", "os": "OS", "ox": "OX"}
 
 
 def _as_dict(s: SpeedSettings) -> dict[str, int]:

@@ -22,9 +22,8 @@ from gateway.bus.requests import LoopDown, Outcome, ReplyKind, TransactionResult
 from gateway.errors import ConflictError, DeviceError, NotFoundError
 from gateway.protocol.models import Command
 from gateway.service.events import EventKind, ServiceEvent
-from gateway.service.gateway import Gateway
-from gateway.service.motion_watch import MotionWatch
-from gateway.service.operation_types import (
+from gateway.service.operations.motion_watch import MotionWatch
+from gateway.service.operations.types import (
     FINAL,
     Operation,
     OperationError,
@@ -32,6 +31,7 @@ from gateway.service.operation_types import (
     OperationView,
     frames_of,
 )
+from gateway.service.runtime.runtime import Runtime
 from gateway.service.topology import AxisRef
 
 __all__ = ["Operation", "OperationError", "OperationState", "OperationView", "Operations"]
@@ -43,14 +43,14 @@ class Operations:
     """Every operation of the gateway (the last ``retention``), and the tracking of the
     active one per controller (its two motors never move together, §2)."""
 
-    def __init__(self, gateway: Gateway, *, retention: int = 10_000) -> None:
+    def __init__(self, gateway: Runtime, *, retention: int = 10_000) -> None:
         self.gateway = gateway
         self.retention = retention
         self._ops: OrderedDict[str, Operation] = OrderedDict()
         self._active: dict[tuple[str, str], Operation] = {}
         self._ids = itertools.count(1)
         self._resolved: list[Callable[[Operation], object]] = []
-        self._watch = MotionWatch(gateway, self._active, self._set, self._end, self._resolve)
+        self._watch = MotionWatch(gateway, self)
 
     def close(self) -> None:
         """Stop listening (the gateway is closing)."""
@@ -153,10 +153,10 @@ class Operations:
             raise
         except LoopDown as exc:
             state = OperationState.UNKNOWN if exc.in_flight else OperationState.FAILED
-            self._end(op, state, OperationError.of("loop_down", "Loop down", str(exc)))
+            self.end(op, state, OperationError.of("loop_down", "Loop down", str(exc)))
             raise
         except Exception as exc:
-            self._end(op, OperationState.FAILED, OperationError.of("refused", "Refused", str(exc)))
+            self.end(op, OperationState.FAILED, OperationError.of("refused", "Refused", str(exc)))
             raise
         self._after(op, result)
         return op
@@ -165,7 +165,7 @@ class Operations:
         """The transaction of a caller that went away has ended."""
         if task.cancelled() or task.exception() is not None:
             error = OperationError.of("refused", "Not sent", str(task.exception() or "cancelled"))
-            self._end(op, OperationState.UNKNOWN, error)
+            self.end(op, OperationState.UNKNOWN, error)
             return
         try:
             self._after(op, task.result())
@@ -184,14 +184,14 @@ class Operations:
             if op.sent is None:
                 op.sent = time.time()
             if op.state is OperationState.QUEUED:
-                self._set(op, OperationState.SENT)
+                self.advance(op, OperationState.SENT)
             return
         first = next(r for r in result.results if r.outcome is not Outcome.DONE)
         detail = f"{first.command.wire()}: {first.kind.value}" + (
             f" ({first.note})" if first.note else ""
         )
         if outcome is Outcome.UNKNOWN:
-            self._end(
+            self.end(
                 op,
                 OperationState.UNKNOWN,
                 OperationError.of("device", "Outcome unknown", detail, "unknown"),
@@ -201,7 +201,7 @@ class Operations:
                 outcome="unknown",
                 timeout=first.kind is ReplyKind.TIMEOUT,
             )
-        self._end(
+        self.end(
             op, OperationState.FAILED, OperationError.of("device", "Not done", detail, "not_done")
         )
         if first.kind is ReplyKind.REJECTED:
@@ -238,12 +238,19 @@ class Operations:
                 continue
             del self._ops[oldest]
 
-    def _set(self, op: Operation, state: OperationState) -> None:
+    def running(self) -> tuple[Operation, ...]:
+        """Every operation not yet ended (one at most per controller)."""
+        return tuple(self._active.values())
+
+    def advance(self, op: Operation, state: OperationState) -> None:
+        """``op`` is now in ``state`` (sent, moving), published to every watcher."""
         op.state = state
         op.updated = time.time()
         self._publish(op)
 
-    def _end(self, op: Operation, state: OperationState, error: OperationError | None) -> None:
+    def end(self, op: Operation, state: OperationState, error: OperationError | None) -> None:
+        """``op`` ended in ``state``: it leaves its controller, its waiters wake, and an
+        ``unknown`` end is read back once the controller answers again."""
         if op.state in FINAL:
             return
         op.error = error
@@ -251,12 +258,12 @@ class Operations:
         key = (op.axis.loop, op.axis.body)
         if self._active.get(key) is op:
             del self._active[key]
-        self._set(op, state)
+        self.advance(op, state)
         op.finished.set()
         if state is OperationState.UNKNOWN:
             self._watch.read_back_later(op)
 
-    def _resolve(
+    def resolve(
         self,
         op: Operation,
         state: OperationState,
@@ -269,7 +276,7 @@ class Operations:
             return
         op.error = error
         op.position = position
-        self._set(op, state)
+        self.advance(op, state)
         for callback in list(self._resolved):
             try:
                 callback(op)

@@ -36,24 +36,27 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from gateway.errors import DeviceError, InvalidInputError
+from gateway.protocol import commands as cmd
 from gateway.protocol.models import Command
 from gateway.protocol.params import PositionFormat
-from gateway.protocol.registry import parse
+from gateway.protocol.registry import REGISTRY
 from gateway.protocol.spec import Effect
-from gateway.service.gateway import Gateway
-from gateway.service.position_format import PositionFormats, check_target, position_data
+from gateway.service.axes.position_format import PositionFormats, check_target, position_data
+from gateway.service.runtime.runtime import Runtime
 from gateway.service.topology import POSITION_MAX, POSITION_MIN, AxisRef, ControllerRef
 
 __all__ = ["Guarded", "SoftLimits", "has_soft_limits", "jog_limit"]
 
 #: Motion forms whose target is the position data of command 2 (absolute) or a count of it.
-_DATA_ABSOLUTE = frozenset({"3", "3{mt}"})
-_DATA_RELATIVE = {"4": 1, "4{mt}": 1, "5": -1, "5{mt}": -1}
-_ENTRY_ABSOLUTE = frozenset({"B{pn}", "B{pn}{mt}"})
-_ENTRY_RELATIVE = frozenset({"B{pn}{dir}", "B{pn}{mt}{dir}"})
-_TO_ORIGIN = frozenset({"1", "1{mt}"})
-_ONE_PULSE = {"7*": 1, "8*": -1}
-_HOMING = frozenset({"0", "0A", "0H", "0R", "0Z", "0Q"})
+_DATA_ABSOLUTE = frozenset(REGISTRY.form(k) for k in ("3", "3{mt}"))
+_DATA_RELATIVE = {
+    REGISTRY.form(k): s for k, s in (("4", 1), ("4{mt}", 1), ("5", -1), ("5{mt}", -1))
+}
+_ENTRY_ABSOLUTE = frozenset(REGISTRY.form(k) for k in ("B{pn}", "B{pn}{mt}"))
+_ENTRY_RELATIVE = frozenset(REGISTRY.form(k) for k in ("B{pn}{dir}", "B{pn}{mt}{dir}"))
+_TO_ORIGIN = frozenset(REGISTRY.form(k) for k in ("1", "1{mt}"))
+_ONE_PULSE = {REGISTRY.form("7*"): 1, REGISTRY.form("8*"): -1}
+_HOMING = frozenset(REGISTRY.form(k) for k in ("0", "0A", "0H", "0R", "0Z", "0Q"))
 
 #: Rule text of a motion command whose target the gateway cannot know before it is sent.
 UNKNOWN_TARGET_RULE = (
@@ -96,7 +99,7 @@ class Guarded:
 class SoftLimits:
     """Resolves and checks the target of motion commands sent by ``/commands`` and ``/raw``."""
 
-    def __init__(self, gateway: Gateway) -> None:
+    def __init__(self, gateway: Runtime) -> None:
         self.gateway = gateway
         self.formats = PositionFormats(gateway)
 
@@ -141,36 +144,36 @@ class SoftLimits:
         return ref.axes[number - 1]
 
     async def _resolved(self, axis: AxisRef, command: Command, field: str) -> list[Command]:
-        key = command.key
-        if key in _HOMING:
+        form = command.form
+        if form in _HOMING:
             return [command]
         fmt = await self.formats.get(axis.loop, axis.body)
-        if key in _TO_ORIGIN:
+        if form in _TO_ORIGIN:
             self._check(axis, 0, fmt, command, field)
             return [command]
-        if key in _ONE_PULSE:
-            target = await self._position(axis) + _ONE_PULSE[key]
+        if form in _ONE_PULSE:
+            target = await self._position(axis) + _ONE_PULSE[form]
             self._check(axis, target, fmt, command, field)
             return [command]
-        if key in _DATA_ABSOLUTE or key in _DATA_RELATIVE:
-            data = await self._read(axis, "2D", "the position data (2D)")
-            if key in _DATA_ABSOLUTE:
+        if form in _DATA_ABSOLUTE or form in _DATA_RELATIVE:
+            data = await self._read(axis, cmd.position_data(), "the position data (2D)")
+            if form in _DATA_ABSOLUTE:
                 target = data
             else:
-                target = await self._position(axis) + _DATA_RELATIVE[key] * abs(data)
+                target = await self._position(axis) + _DATA_RELATIVE[form] * abs(data)
             self._check(axis, target, fmt, command, field)
             return [position_data(data, fmt), command]
-        if key in _ENTRY_ABSOLUTE or key in _ENTRY_RELATIVE:
+        if form in _ENTRY_ABSOLUTE or form in _ENTRY_RELATIVE:
             pn = int(command.params()["pn"])
-            entry = await self._read(axis, f"A{pn:03d}D", f"position table entry {pn:03d}")
-            if key in _ENTRY_ABSOLUTE:
+            entry = await self._read(axis, cmd.table_entry(pn), f"position table entry {pn:03d}")
+            if form in _ENTRY_ABSOLUTE:
                 target = entry
             else:
                 sign = 1 if command.params()["dir"] == "+" else -1
                 target = await self._position(axis) + sign * abs(entry)
             self._check(axis, target, fmt, command, field)
-            text = f"A{pn:03d}{entry:+d}" if fmt is PositionFormat.SIGNED else f"A{pn:03d}{entry}"
-            return [parse(text, positions=fmt), command]
+            signed = fmt is PositionFormat.SIGNED
+            return [cmd.set_table_entry(pn, entry, fmt, signed=signed), command]
         raise InvalidInputError(
             f"{command.wire()!r} on axis {axis.id}: the gateway cannot know where it ends, and "
             f"the axis has soft limits",
@@ -195,11 +198,11 @@ class SoftLimits:
         state = self.gateway.state.axis(axis.loop, axis.body, axis.motor)
         if state.position is not None and not state.stale:
             return state.position
-        return await self._read(axis, f"6{axis.motor}", f"the position of {axis.id}")
+        return await self._read(axis, cmd.position(axis.motor), f"the position of {axis.id}")
 
-    async def _read(self, axis: AxisRef, text: str, what: str) -> int:
+    async def _read(self, axis: AxisRef, query: Command, what: str) -> int:
         scheduler = self.gateway.scheduler(axis.loop)
-        result = await scheduler.submit(axis.body, [parse(text)], motor=None)
+        result = await scheduler.submit(axis.body, [query], motor=None)
         value = result.value
         if not isinstance(value, int) or isinstance(value, bool):
             raise DeviceError(

@@ -12,25 +12,25 @@ state cache latches it as a program error). Buffers and counters are ``GR``/``GW
 from __future__ import annotations
 
 from gateway.errors import InvalidInputError
+from gateway.protocol import commands as cmd
+from gateway.protocol.models import Command
 from gateway.protocol.program import Program, parse_program
-from gateway.protocol.registry import parse
 from gateway.protocol.reply_values import PortByte, ProgramState
 from gateway.service.commands import CommandRunner, require_done
-from gateway.service.ctl_models import (
-    Autostart,
+from gateway.service.controllers.replies import CommandResponse, port_json, response_of
+from gateway.service.controllers.resources import build, value_of
+from gateway.service.controllers.views import (
     PortView,
     ProgramData,
     ProgramStatus,
     ProgramText,
 )
-from gateway.service.ctl_replies import CommandResponse, port_json, response_of
-from gateway.service.ctl_resources import build, value_of
 from gateway.service.topology import ControllerRef
 
 __all__ = ["BUFFERS", "COUNTERS", "ProgramService"]
 
 #: The data buffers and counters of a program (§10 GR, GW).
-BUFFERS = ("A", "B", "C", "D", "E", "F")
+BUFFERS: tuple[cmd.ProgramBuffer, ...] = ("A", "B", "C", "D", "E", "F")
 COUNTERS = (1, 2)
 
 _STATE_NAMES = {
@@ -57,8 +57,8 @@ class ProgramService:
     def __init__(self, runner: CommandRunner) -> None:
         self.runner = runner
 
-    async def _do(self, ref: ControllerRef, text: str, holder: str) -> CommandResponse:
-        result = await self.runner.run(ref, parse(text), holder=holder)
+    async def _do(self, ref: ControllerRef, command: Command, holder: str) -> CommandResponse:
+        result = await self.runner.run(ref, command, holder=holder)
         return response_of(ref, require_done(ref, result))
 
     def check(self, text: str) -> Program:
@@ -74,7 +74,7 @@ class ProgramService:
     async def upload(self, ref: ControllerRef, text: str, *, holder: str) -> CommandResponse:
         """Validate ``text`` (chapters 11-12) and upload it (``I`` + text + CR)."""
         program = self.check(text)
-        command = parse("I")
+        command = cmd.upload_program()
         self.runner.check_control(ref, [command])
         self.runner.check_lease(ref, [command], holder)
         self.runner.check_state(ref, [command])
@@ -86,14 +86,14 @@ class ProgramService:
 
     async def text(self, ref: ControllerRef) -> ProgramText:
         """The program in RAM, read back with ``IR``."""
-        value = value_of(ref, await self.runner.send(ref, [parse("IR")]))
+        value = value_of(ref, await self.runner.send(ref, [cmd.program_text()]))
         return _info(ref, str(value))
 
     async def run(self, ref: ControllerRef, label: str | None, *, holder: str) -> CommandResponse:
         """``G`` (from the start) or ``G{lb}`` (from the statement after ``/G{lb}``), then
         ``GSS``: its value ('1' running, '0' ended, 'E' ended by an error) is the answer."""
         if label is None:
-            command = parse("G")
+            command = cmd.run_program()
         else:
             # Built from the model, never from text: "G" + "S" would read as GS (pause).
             try:
@@ -103,31 +103,32 @@ class ProgramService:
                 raise
         # GSS right after, in the same transaction: a G the device refuses (no program, a
         # label it lacks) is still answered '>' (§9-1 注意); the state shows whether it runs.
-        result = await self.runner.run(ref, [command, parse("GSS")], holder=holder)
+        result = await self.runner.run(ref, [command, cmd.program_state()], holder=holder)
         return response_of(ref, require_done(ref, result))
 
     async def pause(self, ref: ControllerRef, *, holder: str) -> CommandResponse:
         """``GS``: pause at the next statement boundary (resume with ``GC``)."""
-        return await self._do(ref, "GS", holder)
+        return await self._do(ref, cmd.pause_program(), holder)
 
     async def resume(self, ref: ControllerRef, *, holder: str) -> CommandResponse:
         """``GC``: continue a program paused with ``GS``."""
-        return await self._do(ref, "GC", holder)
+        return await self._do(ref, cmd.resume_program(), holder)
 
     async def stop(self, ref: ControllerRef, mode: str, *, holder: str) -> CommandResponse:
         """``GE`` (end at a statement boundary) or ``GES`` (at once, stopping the motor).
 
-        Never refused by a lease: stopping is always allowed (issue 5, leases).
+        Never refused by a lease: whoever holds the controller, anyone may stop a program, as
+        anyone may stop a motion (a stop must never wait for the holder).
         """
         if mode == "immediate":
             scheduler = self.runner.gateway.scheduler(ref.loop)
             result = await scheduler.stop(ref.body, "GES")
             return response_of(ref, require_done(ref, result))
-        return await self._do(ref, "GE", holder)
+        return await self._do(ref, cmd.end_program(), holder)
 
     async def status(self, ref: ControllerRef) -> ProgramStatus:
         """``GSS`` and ``GN``."""
-        result = await self.runner.send(ref, [parse("GSS"), parse("GN")])
+        result = await self.runner.send(ref, [cmd.program_state(), cmd.next_step()])
         state, step = value_of(ref, result, 0), value_of(ref, result, 1)
         assert isinstance(state, ProgramState)
         return ProgramStatus(
@@ -139,7 +140,9 @@ class ProgramService:
 
     async def data(self, ref: ControllerRef) -> ProgramData:
         """Every data buffer and counter (``GR{bf}``, ``GR{ct}``), in one transaction."""
-        commands = [parse(f"GR{b}") for b in BUFFERS] + [parse(f"GR{c}") for c in COUNTERS]
+        commands = [cmd.program_buffer(b) for b in BUFFERS] + [
+            cmd.program_counter(c) for c in COUNTERS
+        ]
         result = await self.runner.send(ref, commands)
         values = [value_of(ref, result, i) for i in range(len(commands))]
         buffers: dict[str, PortView] = {}
@@ -165,13 +168,13 @@ class ProgramService:
         result = await self.runner.run(ref, command, holder=holder)
         return response_of(ref, require_done(ref, result))
 
-    async def autostart(self, ref: ControllerRef) -> Autostart:
+    async def autostart(self, ref: ControllerRef) -> bool:
         """``GA``: whether the program starts at power-on."""
-        value = value_of(ref, await self.runner.run(ref, parse("GA"), holder=""))
-        return Autostart(enabled=bool(value))
+        value = value_of(ref, await self.runner.run(ref, cmd.program_autostart(), holder=""))
+        return bool(value)
 
     async def set_autostart(
         self, ref: ControllerRef, enabled: bool, *, holder: str
     ) -> CommandResponse:
         """``GAS`` / ``GAR`` (written to the EEPROM at once, §10 GA)."""
-        return await self._do(ref, "GAS" if enabled else "GAR", holder)
+        return await self._do(ref, cmd.set_program_autostart(enabled), holder)

@@ -9,39 +9,45 @@ it, 504 when its reply was lost.
 
 from __future__ import annotations
 
+from enum import StrEnum
 from typing import Any
 
 from pydantic import ValidationError
 
 from gateway.bus.requests import TransactionResult
 from gateway.errors import DeviceError, InvalidInputError
+from gateway.protocol import commands as cmd
 from gateway.protocol.models import Command
 from gateway.protocol.params import PositionFormat
-from gateway.protocol.registry import REGISTRY, parse
+from gateway.protocol.registry import REGISTRY
 from gateway.protocol.reply_values import (
-    Contact,
     InputsWithInp,
     OutputsWithClr,
     PortByte,
     SensorLogic,
 )
 from gateway.service.commands import CommandRunner, require_done
-from gateway.service.ctl_models import (
+from gateway.service.controllers.replies import CommandResponse, port_json, response_of
+from gateway.service.controllers.views import (
     BitView,
-    EepromArea,
     IoView,
     ModeView,
-    OutputsWrite,
     PortView,
     PositionEntry,
-    PositionWrite,
     SensorLogicView,
-    SensorLogicWrite,
 )
-from gateway.service.ctl_replies import CommandResponse, port_json, response_of
 from gateway.service.topology import ControllerRef
 
-__all__ = ["EEPROM_LOAD", "EEPROM_SAVE", "ControllerResources", "build", "value_of"]
+__all__ = ["EEPROM_LOAD", "EEPROM_SAVE", "ControllerResources", "EepromArea", "build", "value_of"]
+
+
+class EepromArea(StrEnum):
+    """What an EEPROM save or load is about (§10 DW/DL, AW/AL, IW/IL)."""
+
+    SETTINGS = "settings"  # DW / DL
+    POSITIONS = "positions"  # AW / AL
+    PROGRAM = "program"  # IW / IL
+
 
 #: §10 DW / AW / IW: write RAM to EEPROM ('>' then ``$B#*`` when the write ends; the scheduler
 #: holds the loop until then, docs/manual-notes.md); §10 DL / AL / IL: EEPROM back into RAM.
@@ -103,20 +109,28 @@ class ControllerResources:
         return PositionEntry(controller=ref.id, number=number, position=int(value))
 
     async def set_position(
-        self, ref: ControllerRef, number: int, body: PositionWrite, *, holder: str
+        self,
+        ref: ControllerRef,
+        number: int,
+        position: int | None,
+        *,
+        current: bool = False,
+        motor: int | None = None,
+        holder: str,
     ) -> CommandResponse:
-        """Set entry ``number``: a value (``A{pn}{pp}``) or the current position (``A{pn}``).
+        """Set entry ``number``: to ``position`` (``A{pn}{pp}``) or, with ``current``, to the
+        current position of ``motor`` (``A{pn}``, the motor selected first).
 
         Signed management (mode 1; EP1 is not cached) and negative values are written with a
         sign, as the manual requires there (docs/manual-notes.md, "Positions in signed
         management carry a sign").
         """
-        if body.current:
+        if current:
             command = build("A{pn}", "path", pn=number)
-            return await self._write(ref, command, holder, motor=body.motor)
+            return await self._write(ref, command, holder, motor=motor)
         signed = self._mode(ref) == 1
         fmt = PositionFormat.SIGNED if signed else None
-        pp = body.position
+        pp = position
         try:
             command = build(
                 "A{pn}{pp}", "body", pn=number, pp=pp, signed=signed or (pp or 0) < 0, positions=fmt
@@ -132,9 +146,9 @@ class ControllerResources:
         """Both ports; in modes 0 and 1 with INP1/INP2 and CLR1/CLR2 (``CA``, ``COA``)."""
         mode = self._mode(ref)
         if mode is None:  # 94: the mode bits of 9, clear nothing (§10 9 form II)
-            mode = int(value_of(ref, await self.runner.send(ref, [parse("94")])))
+            mode = int(value_of(ref, await self.runner.send(ref, [cmd.condition_bit(4)])))
         if mode in (0, 1):
-            result = await self.runner.send(ref, [parse("CA"), parse("COA")])
+            result = await self.runner.send(ref, [cmd.inputs_with_inp(), cmd.outputs_with_clr()])
             inputs = value_of(ref, result, 0)
             outputs = value_of(ref, result, 1)
             assert isinstance(inputs, InputsWithInp) and isinstance(outputs, OutputsWithClr)
@@ -148,7 +162,7 @@ class ControllerResources:
                 clr1=outputs.clr1,
                 clr2=outputs.clr2,
             )
-        result = await self.runner.send(ref, [parse("C"), parse("CO")])
+        result = await self.runner.send(ref, [cmd.inputs(), cmd.outputs()])
         ins, outs = value_of(ref, result, 0), value_of(ref, result, 1)
         assert isinstance(ins, PortByte) and isinstance(outs, PortByte)
         return IoView(controller=ref.id, mode=mode, inputs=_port(ins), outputs=_port(outs))
@@ -160,13 +174,14 @@ class ControllerResources:
         return BitView(controller=ref.id, bit=bit, on=bool(value))
 
     async def set_outputs(
-        self, ref: ControllerRef, body: OutputsWrite, *, holder: str
+        self, ref: ControllerRef, value: int, clr: tuple[bool, bool] | None, *, holder: str
     ) -> CommandResponse:
-        """All outputs (``D{du}{dl}``), with CLR1/CLR2 (``DA{dc}{du}{dl}``, modes 0, 1)."""
-        du, dl = body.value >> 4, body.value & 0xF
-        if body.clr1 is None:
+        """All outputs to ``value`` (``D{du}{dl}``), with ``clr`` (CLR1, CLR2) too
+        (``DA{dc}{du}{dl}``, modes 0, 1)."""
+        du, dl = value >> 4, value & 0xF
+        if clr is None:
             return await self._write(ref, build("D{du}{dl}", du=du, dl=dl), holder)
-        dc = int(bool(body.clr1)) | int(bool(body.clr2)) << 1  # DC bit 0 CLR1, bit 1 CLR2
+        dc = int(clr[0]) | int(clr[1]) << 1  # DC bit 0 CLR1, bit 1 CLR2
         return await self._write(ref, build("DA{dc}{du}{dl}", dc=dc, du=du, dl=dl), holder)
 
     async def set_output_bit(
@@ -189,7 +204,9 @@ class ControllerResources:
 
     async def sensor_logic(self, ref: ControllerRef, motor: int) -> SensorLogicView:
         """The sensor logic of ``motor`` (``EA`` with the motor selected first)."""
-        value = value_of(ref, await self.runner.run(ref, parse("EA"), holder="", motor=motor))
+        value = value_of(
+            ref, await self.runner.run(ref, cmd.sensor_logic(), holder="", motor=motor)
+        )
         assert isinstance(value, SensorLogic)
         return SensorLogicView(
             controller=ref.id,
@@ -202,23 +219,16 @@ class ControllerResources:
         )
 
     async def set_sensor_logic(
-        self, ref: ControllerRef, motor: int, body: SensorLogicWrite, *, holder: str
+        self, ref: ControllerRef, motor: int, logic: SensorLogic, *, holder: str
     ) -> CommandResponse:
         """``EA{du}{dl}`` for ``motor`` (§10 EA; the EMS bit is common to both motors)."""
-        logic = SensorLogic(
-            step_out_sensor=Contact[body.step_out_sensor],
-            limit=Contact[body.limit],
-            org=Contact[body.org],
-            emergency_stop=Contact[body.emergency_stop],
-            inp=Contact[body.inp],
-        )
         byte = logic.byte
         command = build("EA{du}{dl}", du=byte >> 4, dl=byte & 0xF)
         return await self._write(ref, command, holder, motor=motor)
 
     async def mode(self, ref: ControllerRef) -> ModeView:
         """The operating mode, read with ``94`` (allowed while moving, clears nothing)."""
-        value = value_of(ref, await self.runner.send(ref, [parse("94")]))
+        value = value_of(ref, await self.runner.send(ref, [cmd.condition_bit(4)]))
         return ModeView(controller=ref.id, mode=int(value))
 
     async def set_mode(self, ref: ControllerRef, mode: int, *, holder: str) -> CommandResponse:

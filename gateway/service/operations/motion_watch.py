@@ -1,13 +1,14 @@
 """How the end of a motion is seen, for ``Operations``.
 
 The end of a motion is seen in the status reads (``""``) that follow the send: the poller
-reads ``""`` every ``moving_period`` while a motor moves (issue 4), and the scheduler publishes
+reads ``""`` every ``moving_period`` while a motor moves (its position back to back, between
+the status reads), and the scheduler publishes
 every reply, whoever asked. ``""`` clears its error bits on the device (§10 "" 注意点), so the
 errors are taken from the reads themselves: a limit error or an emergency stop reported after
 the send makes the operation ``failed``, as does a command error before the motor was ever
 seen moving (the controller ignored the command, §9-1 注意). The final position is the next
-position read (``6{mt}``: the poller reads it in the same transaction as the ``""`` that saw
-the end), or a read of our own when none comes.
+position read (the poller's position stream reads it again once a ``""`` has seen the end),
+or a read of our own when none comes.
 
 Watching the events rather than state changes: the cache publishes a field only when it moves,
 so a move too short for any read to see it moving would change nothing there. The events come
@@ -21,18 +22,17 @@ from __future__ import annotations
 import asyncio
 import logging
 import time
-from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol
 
 from gateway.bus.events import BusEvent, LinkDown, ReplyObserved, TransactionDone
 from gateway.bus.requests import Outcome
 from gateway.bus.state_types import Change
-from gateway.protocol.registry import parse
+from gateway.protocol import commands as cmd
 from gateway.protocol.reply_values import StatusFlags
 from gateway.protocol.spec import Effect
-from gateway.service.gateway import Gateway
-from gateway.service.operation_types import FINAL, Operation, OperationError, OperationState
+from gateway.service.operations.types import FINAL, Operation, OperationError, OperationState
+from gateway.service.runtime.runtime import Runtime
 
 __all__ = ["FINAL_READ_WAIT", "READ_BACK_HOLD", "MotionWatch"]
 
@@ -63,22 +63,42 @@ _COMMAND = OperationError(
 )
 
 
+class OperationBook(Protocol):
+    """What the watch reads and moves of the operations it follows (``Operations`` is one):
+    the book keeps the operations and publishes each change; the watch decides the changes."""
+
+    def active(self, loop: str, body: str) -> Operation | None:
+        """The operation not yet ended on controller ``loop.body``, if any."""
+
+    def running(self) -> tuple[Operation, ...]:
+        """Every operation not yet ended."""
+
+    def advance(self, op: Operation, state: OperationState) -> None:
+        """``op`` is now in ``state`` (sent, moving): not an end."""
+
+    def end(self, op: Operation, state: OperationState, error: OperationError | None) -> None:
+        """``op`` ended in ``state`` (done, failed, unknown)."""
+
+    def resolve(
+        self,
+        op: Operation,
+        state: OperationState,
+        error: OperationError | None,
+        position: int | None,
+    ) -> None:
+        """The ``unknown`` ``op`` read back once its controller answered again."""
+
+
 class MotionWatch:
     """Follows the active operation of each controller to its end, from the bus events."""
 
     def __init__(
         self,
-        gateway: Gateway,
-        active: dict[tuple[str, str], Operation],
-        set_state: Callable[[Operation, OperationState], None],
-        end: Callable[[Operation, OperationState, OperationError | None], None],
-        resolve: Callable[[Operation, OperationState, OperationError | None, int | None], None],
+        gateway: Runtime,
+        book: OperationBook,
     ) -> None:
         self.gateway = gateway
-        self._active = active
-        self._set = set_state
-        self._end = end
-        self._resolve = resolve
+        self._book = book
         #: per controller, the ``unknown`` operation to read back when it answers again
         self._unknown: dict[tuple[str, str], _ReadBack] = {}
         self._tasks: set[asyncio.Task[Any]] = set()
@@ -96,15 +116,15 @@ class MotionWatch:
 
     def _on_bus(self, event: BusEvent) -> None:
         if isinstance(event, LinkDown):
-            for (loop, _), running in list(self._active.items()):
-                if loop == event.loop and running.state not in FINAL:
+            for running in self._book.running():
+                if running.axis.loop == event.loop and running.state not in FINAL:
                     error = OperationError.of("loop_down", "Loop down", event.cause, "unknown")
-                    self._end(running, OperationState.UNKNOWN, error)
+                    self._book.end(running, OperationState.UNKNOWN, error)
             return
         body = getattr(event, "body", None)
         if isinstance(event, ReplyObserved) and (event.loop, event.body) in self._unknown:
             self._read_back(self._unknown[event.loop, event.body], event)
-        op = self._active.get((event.loop, body)) if isinstance(body, str) else None
+        op = self._book.active(event.loop, body) if isinstance(body, str) else None
         if op is None:
             return
         if isinstance(event, TransactionDone):
@@ -114,7 +134,7 @@ class MotionWatch:
         elif isinstance(event, ReplyObserved) and op.armed:
             if isinstance(event.value, StatusFlags):
                 self._status(op, event.value)
-            elif op.ending is not None and event.command.key in ("6", "6{mt}"):
+            elif op.ending is not None and event.command.form.reads_position:
                 motor = event.command.motor or event.motor
                 if motor == op.motor and isinstance(event.value, int) and not op.ending.done():
                     op.ending.set_result(event.value)
@@ -135,8 +155,8 @@ class MotionWatch:
                     # and every client sees each state in order (sent, then moving)
                     if op.sent is None:
                         op.sent = time.time()
-                    self._set(op, OperationState.SENT)
-                self._set(op, OperationState.MOVING)
+                    self._book.advance(op, OperationState.SENT)
+                self._book.advance(op, OperationState.MOVING)
         elif op.ending is None:
             op.ending = asyncio.get_running_loop().create_future()
             task = asyncio.ensure_future(self._finish(op, op.ending))
@@ -157,7 +177,7 @@ class MotionWatch:
             # The axis stands at the end of this motion: it was carried out. An error the
             # device latched meanwhile (another command's, or a status reply bent on the
             # line) stays on the controller for clients to see; it is not this motion's.
-            self._end(op, OperationState.DONE, None)
+            self._book.end(op, OperationState.DONE, None)
             return
         if self._short(op) and not op.rechecked:
             # Short of its end and no error seen: the status read that showed the stop may
@@ -171,19 +191,21 @@ class MotionWatch:
                 return
             op.position = position if position is not None else op.position
             if self._reached(op, op.position):
-                self._end(op, OperationState.DONE, None)
+                self._book.end(op, OperationState.DONE, None)
                 return
         if "limit_error" in op.errors:
-            self._end(op, OperationState.FAILED, _LIMIT)
+            self._book.end(op, OperationState.FAILED, _LIMIT)
         elif "emergency_stop" in op.errors:
-            self._end(op, OperationState.FAILED, _EMERGENCY)
+            self._book.end(op, OperationState.FAILED, _EMERGENCY)
         elif "command_error" in op.errors:
-            self._end(op, OperationState.FAILED, _COMMAND)
+            self._book.end(op, OperationState.FAILED, _COMMAND)
         elif op.stop_requested and op.kind != "jog":
             detail = f"a stop request ended the {op.kind} at {position} pulses"
             if op.target is not None:
                 detail += f", before its target {op.target}"
-            self._end(op, OperationState.FAILED, OperationError.of("stopped", "Stopped", detail))
+            self._book.end(
+                op, OperationState.FAILED, OperationError.of("stopped", "Stopped", detail)
+            )
         elif self._short(op) and op.position is not None:
             # Either the motion stopped short for a reason nobody reported, or a reply bent
             # on the line (the pre-read) gave a wrong end: the gateway cannot tell.
@@ -192,9 +214,9 @@ class MotionWatch:
                 f"its pre-read ({op.position_before}) gives, and the controller reported no error"
             )
             error = OperationError.of("not_reached", "Target not reached", detail, "unknown")
-            self._end(op, OperationState.UNKNOWN, error)
+            self._book.end(op, OperationState.UNKNOWN, error)
         else:
-            self._end(op, OperationState.DONE, None)
+            self._book.end(op, OperationState.DONE, None)
 
     @staticmethod
     def _reached(op: Operation, position: int | None) -> bool:
@@ -218,7 +240,7 @@ class MotionWatch:
         """The status and the position of ``op``'s axis, read now."""
         try:
             result = await self.gateway.scheduler(op.axis.loop).submit(
-                op.axis.body, [parse(""), parse(f"6{op.motor}")]
+                op.axis.body, [cmd.status(), cmd.position(op.motor)]
             )
         except Exception as exc:
             log.info("operation %s: end not read again: %s", op.id, exc)
@@ -232,7 +254,7 @@ class MotionWatch:
     async def _read_position(self, op: Operation) -> int | None:
         try:
             result = await self.gateway.scheduler(op.axis.loop).submit(
-                op.axis.body, parse(f"6{op.motor}")
+                op.axis.body, cmd.position(op.motor)
             )
         except Exception as exc:
             log.info("operation %s: final position not read: %s", op.id, exc)
@@ -245,12 +267,12 @@ class MotionWatch:
         if change.body is None or change.motor is not None:
             return
         if change.values.get("online") is False:
-            op = self._active.get((change.loop, change.body))
+            op = self._book.active(change.loop, change.body)
             if op is not None and op.state not in FINAL:
                 error = OperationError.of(
                     "offline", "Controller offline", "the controller stopped answering", "unknown"
                 )
-                self._end(op, OperationState.UNKNOWN, error)
+                self._book.end(op, OperationState.UNKNOWN, error)
 
     # ------------------------------------------------------------------ read back
 
@@ -299,7 +321,7 @@ class MotionWatch:
                 task = asyncio.ensure_future(self._read_position(op))
                 self._tasks.add(task)
                 task.add_done_callback(self._tasks.discard)
-        elif rb.settled and event.command.key in ("6", "6{mt}"):
+        elif rb.settled and event.command.form.reads_position:
             motor = event.command.motor or event.motor
             if motor == op.motor and isinstance(value, int) and not isinstance(value, bool):
                 del self._unknown[key]
@@ -309,20 +331,20 @@ class MotionWatch:
         expected, before = op.expected_end, op.position_before
         seen = f"read back when the controller answered again: {position} pulses"
         if position == expected:
-            self._resolve(op, OperationState.DONE, None, position)
+            self._book.resolve(op, OperationState.DONE, None, position)
         elif position == before:
             error = OperationError.of(
                 "device", "Not done", f"{seen}, where it started: not carried out", "not_done"
             )
-            self._resolve(op, OperationState.FAILED, error, position)
+            self._book.resolve(op, OperationState.FAILED, error, position)
         elif errors:
             error = _LIMIT if "limit_error" in errors else _EMERGENCY
-            self._resolve(op, OperationState.FAILED, error, position)
+            self._book.resolve(op, OperationState.FAILED, error, position)
         elif op.error is not None:
             # Neither the start nor the end: it moved and stopped short; nobody can tell why.
             detail = f"{op.error.detail}; {seen}, neither the start {before} nor the end {expected}"
             error = op.error.model_copy(update={"detail": detail})
-            self._resolve(op, OperationState.UNKNOWN, error, position)
+            self._book.resolve(op, OperationState.UNKNOWN, error, position)
 
 
 @dataclass

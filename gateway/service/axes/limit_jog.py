@@ -21,12 +21,12 @@ from typing import Any
 
 from gateway.bus.requests import TransactionResult
 from gateway.errors import DeviceError, InvalidInputError
+from gateway.protocol import commands as cmd
 from gateway.protocol.models import Command
 from gateway.protocol.params import PositionFormat
-from gateway.protocol.registry import parse
-from gateway.service.axis_types import Direction, JogSpeed
-from gateway.service.operations import Operation
-from gateway.service.position_format import check_target, position_data
+from gateway.service.axes.position_format import check_target, position_data
+from gateway.service.operations.registry import Operation
+from gateway.service.operations.terms import Direction, JogSpeed
 from gateway.service.topology import AxisRef
 
 __all__ = ["LimitJogs"]
@@ -71,14 +71,14 @@ class LimitJogs:
                 rule=JOG_RULE,
             )
         check_target(ref, limit, fmt)
-        moves: list[Command] = [position_data(limit, fmt), parse("3")]
+        moves: list[Command] = [position_data(limit, fmt), cmd.move_to_position_data()]
         if request["speed"] == JogSpeed.HIGH.value:
             return await self._run(ref, "jog", request, moves, target=limit, holder=holder)
-        result = await self._submit(ref, [parse("OH"), parse("OL")], motor=ref.motor)
+        result = await self._submit(ref, [cmd.speed("OH"), cmd.speed("OL")], motor=ref.motor)
         oh, ol = (r.value for r in result.results[-2:])
         if not isinstance(oh, int) or not isinstance(ol, int):
             raise DeviceError(f"OH and OL of {ref.id} could not be read", outcome="not_done")
-        commands = [parse(f"OH{ol}"), *moves]
+        commands = [cmd.set_speed("OH", ol), *moves]
         try:
             op = await self._run(ref, "jog", request, commands, target=limit, holder=holder)
         except BaseException:
@@ -94,7 +94,7 @@ class LimitJogs:
             if op is not None:
                 await op.finished.wait()
             try:
-                await self._submit(ref, [parse(f"OH{oh}")], motor=ref.motor)
+                await self._submit(ref, [cmd.set_speed("OH", oh)], motor=ref.motor)
             except Exception as exc:  # the loop went down: OH stays at OL; say so
                 log.warning("OH of %s could not be set back to %d: %s", ref.id, oh, exc)
 

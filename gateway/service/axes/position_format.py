@@ -12,10 +12,10 @@ known, ``EP`` is read once (refused while moving, and in mode 1).
 from __future__ import annotations
 
 from gateway.errors import InvalidInputError
+from gateway.protocol import commands as cmd
 from gateway.protocol.models import Command
 from gateway.protocol.params import PositionFormat
-from gateway.protocol.registry import parse
-from gateway.service.gateway import Gateway
+from gateway.service.runtime.runtime import Runtime
 from gateway.service.topology import AxisRef
 
 __all__ = ["PositionFormats", "check_target", "position_data"]
@@ -24,7 +24,7 @@ __all__ = ["PositionFormats", "check_target", "position_data"]
 class PositionFormats:
     """The position management of every controller, read from the device when not known."""
 
-    def __init__(self, gateway: Gateway) -> None:
+    def __init__(self, gateway: Runtime) -> None:
         self.gateway = gateway
 
     def known(self, loop: str, body: str) -> PositionFormat | None:
@@ -40,7 +40,7 @@ class PositionFormats:
         """The format, read with ``EP`` when not known (raises what ``submit`` raises)."""
         fmt = self.known(loop, body)
         if fmt is None:
-            await self.gateway.scheduler(loop).submit(body, parse("EP"))
+            await self.gateway.scheduler(loop).submit(body, cmd.position_format())
             # The reply taught the state cache (it hears every reply first).
             fmt = self.known(loop, body)
         # No answer: the move's own checks still hold; assume the power-on EP0.
@@ -61,5 +61,4 @@ def check_target(ref: AxisRef, target: int, fmt: PositionFormat) -> None:
 
 def position_data(pulses: int, fmt: PositionFormat) -> Command:
     """``2{pp}``: signed management writes the sign, unsigned never (docs/manual-notes.md)."""
-    text = f"2{pulses:+d}" if fmt is PositionFormat.SIGNED else f"2{pulses}"
-    return parse(text, positions=fmt)
+    return cmd.set_position_data(pulses, fmt, signed=fmt is PositionFormat.SIGNED)

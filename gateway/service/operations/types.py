@@ -15,7 +15,7 @@ from typing import Any
 from pydantic import BaseModel, ConfigDict, Field
 
 from gateway.bus.requests import ReplyKind, TransactionResult
-from gateway.service.axis_types import Direction, HomeMethod, JogSpeed, Unit
+from gateway.service.operations.terms import Direction, HomeMethod, JogSpeed, Unit
 from gateway.service.topology import AxisRef
 
 __all__ = [

@@ -1,4 +1,4 @@
-"""Controllers and loops as clients use them (issue 5): views, any command, raw text, trace.
+"""Controllers and loops as clients use them: views, any command, raw text, trace.
 
 ``ControllerService(gateway, leases, operations)`` is what the controller and loop routes call:
 
@@ -17,10 +17,11 @@ The resources of a controller (position table, I/O, sensor logic, mode, EEPROM) 
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Sequence
 from dataclasses import replace
 from typing import Any
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, Field
 
 from gateway.bus.scheduler import LinkState
 from gateway.bus.trace import TraceRecord
@@ -29,15 +30,14 @@ from gateway.protocol.models import Command
 from gateway.protocol.registry import parse
 from gateway.service.commands import CommandRunner, LeaseCheck
 from gateway.service.control import ControlView
-from gateway.service.ctl_models import RawRequest
-from gateway.service.ctl_replies import CommandResponse, response_of
-from gateway.service.ctl_resources import ControllerResources
-from gateway.service.gateway import Gateway
-from gateway.service.programs import ProgramService
+from gateway.service.controllers.programs import ProgramService
+from gateway.service.controllers.replies import CommandResponse, response_of
+from gateway.service.controllers.resources import ControllerResources
+from gateway.service.runtime.runtime import Runtime
 from gateway.service.topology import ControllerRef
 from gateway.service.views import ControllerView, LoopView, controller_view, loop_view, wall_time
 
-__all__ = ["FRESH_READS", "ControllerService", "TraceLine", "TraceSettings", "TraceView"]
+__all__ = ["FRESH_READS", "ControllerService", "TraceLine", "TraceView"]
 
 #: What ``?fresh=true`` reads: status (moving, errors), mode (94: clears nothing and is allowed
 #: while moving, §10 9 form II), the selected motor (97), both positions, the program state.
@@ -64,23 +64,10 @@ class TraceView(BaseModel):
     lines: list[TraceLine]
 
 
-class TraceSettings(BaseModel):
-    """Switch the line trace of a loop (whole loop, or some controllers)."""
-
-    model_config = ConfigDict(extra="forbid", strict=True)
-
-    enabled: bool = Field(description="trace every controller of the loop")
-    controllers: list[str] = Field(
-        default_factory=list, description="body numbers or ids traced in addition"
-    )
-    hex: bool = False
-    clear: bool = Field(False, description="forget the records kept so far")
-
-
 class ControllerService:
     """Controllers and loops of ``gateway`` as the API shows them."""
 
-    def __init__(self, gateway: Gateway, leases: LeaseCheck, operations: Any = None) -> None:
+    def __init__(self, gateway: Runtime, leases: LeaseCheck, operations: Any = None) -> None:
         self.gateway = gateway
         self.leases = leases
         self.operations = operations
@@ -162,23 +149,24 @@ class ControllerService:
         result = await self.runner.run(ref, command, holder=holder, motor=motor)
         return response_of(ref, result)
 
-    def parse_raw(self, request: RawRequest) -> Command:
-        """The command model of raw text; 422 with the reason when it fits no form."""
+    def parse_raw(self, text: str) -> Command:
+        """The command model of raw ``text``; 422 with the reason when it fits no form."""
         try:
-            command = parse(request.text)
+            command = parse(text)
         except InvalidInputError as exc:
             field = "text" if exc.field in (None, "text") else f"text.{exc.field}"
             raise InvalidInputError(str(exc), field=field, rule=exc.rule) from None
         self.runner.refuse_unsendable(command, field="text")
         return command
 
-    async def raw(self, loop: str, request: RawRequest, *, holder: str) -> CommandResponse:
-        """Parse ``request.text`` through the catalog and send it to the controller named."""
-        ref = self.on_loop(loop, request.controller)
-        command = self.parse_raw(request)
-        result = await self.runner.run(
-            ref, command, holder=holder, motor=request.motor, field="text"
-        )
+    async def raw(
+        self, loop: str, controller: str, text: str, *, motor: int | None, holder: str
+    ) -> CommandResponse:
+        """Parse ``text`` through the catalog and send it to ``controller`` of ``loop`` (with
+        ``motor`` selected first when given)."""
+        ref = self.on_loop(loop, controller)
+        command = self.parse_raw(text)
+        result = await self.runner.run(ref, command, holder=holder, motor=motor, field="text")
         return response_of(ref, result)
 
     # ------------------------------------------------------------------ trace
@@ -196,17 +184,26 @@ class ControllerService:
             lines=[_line(ref.name, r, trace.hex_mode) for r in trace.records(body)],
         )
 
-    def set_trace(self, loop: str, settings: TraceSettings) -> TraceView:
-        """Switch the trace of ``loop``; the trace afterwards."""
+    def set_trace(
+        self,
+        loop: str,
+        *,
+        enabled: bool,
+        controllers: Sequence[str] = (),
+        hex_mode: bool = False,
+        clear: bool = False,
+    ) -> TraceView:
+        """Switch the trace of ``loop`` (whole loop, or ``controllers`` in addition); the
+        trace afterwards."""
         ref = self.gateway.topology.loop(loop)
-        bodies = {self.on_loop(ref.name, c).body for c in settings.controllers}
+        bodies = {self.on_loop(ref.name, c).body for c in controllers}
         trace = self.gateway.scheduler(ref.name).trace
-        trace.enable(settings.enabled, hex_mode=settings.hex)
+        trace.enable(enabled, hex_mode=hex_mode)
         for body in set(trace.bodies) - bodies:
             trace.enable_body(body, False)
         for body in bodies:
             trace.enable_body(body, True)
-        if settings.clear:
+        if clear:
             trace.clear()
         return self.trace(ref.name)
 

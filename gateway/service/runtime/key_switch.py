@@ -20,7 +20,7 @@ import logging
 
 from gateway.bus.requests import BusError, Priority
 from gateway.bus.scheduler import LinkState, LoopScheduler
-from gateway.protocol.registry import parse
+from gateway.protocol import commands as cmd
 from gateway.protocol.reply_values import PortByte
 from gateway.service.control import ControlStates, local_input_of
 from gateway.service.topology import ControllerRef, Topology
@@ -29,7 +29,7 @@ __all__ = ["KeySwitchReader"]
 
 log = logging.getLogger("gateway.service")
 
-_READ = parse("C")
+_READ = cmd.inputs()
 
 
 class KeySwitchReader:

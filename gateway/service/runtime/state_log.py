@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 from gateway.bus.counters import CountersSnapshot
 from gateway.bus.events import BusEvent, LinkDown, LinkUp, TransactionDone
 from gateway.bus.state_types import Change
-from gateway.service.gateway import Gateway
+from gateway.service.runtime.runtime import Runtime
 
 __all__ = ["FAULT_COUNTERS", "StateLog"]
 
@@ -56,7 +56,7 @@ class _LoopLog:
 class StateLog:
     """Writes the state-change lines of ``gateway`` (see the module)."""
 
-    gateway: Gateway
+    gateway: Runtime
     summary_period: float = 60.0
     clock: Callable[[], float] = time.monotonic
     _loops: dict[str, _LoopLog] = field(default_factory=dict)

@@ -1,13 +1,14 @@
 """The running gateway: one scheduler and poller per configured loop, one state cache for all.
 
-``Gateway(config)`` builds nothing that touches a port; ``await start()`` opens every loop
-(one attempt each; a loop that cannot open now keeps trying in the background, and requests
-to it fail with ``LoopDown`` meanwhile) and starts polling; ``await close()`` stops accepting,
-lets the transaction in flight on each loop finish and closes the ports.
+``Runtime(config, transports=...)`` builds nothing that touches a port; ``await start()``
+opens every loop (one attempt each; a loop that cannot open now keeps trying in the
+background, and requests to it fail with ``LoopDown`` meanwhile) and starts polling;
+``await close()`` stops accepting, lets the transaction in flight on each loop finish and
+closes the ports.
 
-A loop's port is ``open_transport(port, baud)`` unless the caller hands over a transport for
-it (``transports``): that is how ``rc233-gateway serve --simulate`` puts the in-process
-simulator behind a loop without this layer importing the simulator.
+The transports come from whoever owns the process, one per loop (``transports``): the command
+line opens the configured ports (``gateway.cli.serve.open_lines``) or puts the in-process
+simulator behind a loop; this layer never opens a port of its own choosing.
 """
 
 from __future__ import annotations
@@ -30,12 +31,11 @@ from gateway.protocol.reply_parser import UnsolicitedKind
 from gateway.service.config import GatewayConfig, LoopSettings
 from gateway.service.control import ControlStates
 from gateway.service.events import EventKind, ServiceEvent, ServiceEvents
-from gateway.service.key_switch import KeySwitchReader
+from gateway.service.runtime.key_switch import KeySwitchReader
 from gateway.service.topology import LoopRef, Topology
 from gateway.transport.base import Transport
-from gateway.transport.factory import open_transport
 
-__all__ = ["Gateway"]
+__all__ = ["Runtime", "loop_config", "poll_config"]
 
 log = logging.getLogger("gateway.service")
 
@@ -45,17 +45,11 @@ DRAIN_SECONDS = 5.0
 
 def loop_config(settings: LoopSettings, ref: LoopRef, time_scale: float) -> LoopConfig:
     """The scheduler's configuration of one loop."""
-    t = settings.timeouts
     return LoopConfig(
         name=settings.name,
         baud=settings.baud,
         time_scale=time_scale,
-        turnaround=t.turnaround,
-        host_latency=t.host_latency,
-        nak_retries=t.nak_retries,
-        resend_retries=t.resend_retries,
-        timeouts_to_down=t.timeouts_to_down,
-        eeprom_write_hold=t.eeprom_write_hold,
+        **settings.timeouts.model_dump(),  # TimeoutSettings' fields are LoopConfig's
         sum_at_connect=settings.sum_at_connect,
         series=MappingProxyType(
             {c.body: c.series for c in ref.controllers if c.series is not Series.DOLLAR}
@@ -65,23 +59,18 @@ def loop_config(settings: LoopSettings, ref: LoopRef, time_scale: float) -> Loop
 
 def poll_config(settings: LoopSettings) -> PollConfig:
     """The poller's periods of one loop."""
-    p = settings.poll
-    return PollConfig(
-        moving_period=p.moving_period,
-        idle_period=p.idle_period,
-        sensor_period=p.sensor_period,
-        condition_period=p.condition_period,
-    )
+    return PollConfig(**settings.poll.model_dump())  # PollSettings' fields are PollConfig's
 
 
-class Gateway:
-    """Every loop of a configuration, running."""
+class Runtime:
+    """The running gateway: every loop of a configuration, its state cache, service events,
+    control states and key switch reader (what the faces are built on)."""
 
     def __init__(
         self,
         config: GatewayConfig,
         *,
-        transports: Mapping[str, Transport] | None = None,
+        transports: Mapping[str, Transport],
         time_scale: float = 1.0,
     ) -> None:
         self.config = config
@@ -92,12 +81,13 @@ class Gateway:
         self.schedulers: dict[str, LoopScheduler] = {}
         self.pollers: dict[str, Poller] = {}
         self.started = time.time()
-        transports = dict(transports or {})
+        transports = dict(transports)
+        missing = [ref.name for ref in self.topology.loops() if ref.name not in transports]
+        if missing:
+            raise ValueError(f"no transport for the loops {missing}")
         for ref in self.topology.loops():
             settings = ref.settings
-            transport = transports.pop(ref.name, None) or open_transport(
-                settings.port, settings.baud
-            )
+            transport = transports.pop(ref.name)
             scheduler = LoopScheduler(transport, loop_config(settings, ref, time_scale))
             self.schedulers[ref.name] = scheduler
             self.pollers[ref.name] = attach(

@@ -1,0 +1,97 @@
+"""The catalog's forms the gateway asks about by identity: ``command.form is SELECT_MOTOR``.
+
+A form is one object of the catalog, so comparing it by identity names what is meant and
+cannot be fooled by how its text happens to be written.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+from gateway.protocol.commands.base import SpeedName
+from gateway.protocol.registry import REGISTRY
+from gateway.protocol.spec import Form
+
+__all__ = [
+    "CLEARS_ERRORS",
+    "CONDITION",
+    "CONDITION_BIT",
+    "ERASE_EEPROM",
+    "ERROR_OUTPUT_BITS",
+    "ERROR_OUTPUT_MASK",
+    "FRAMING_QUERIES",
+    "FRAMING_SETTINGS",
+    "LOAD_SETTINGS",
+    "MODE",
+    "OPEN_PROGRAM",
+    "POSITION_FORMAT",
+    "PROGRAM_ENDS",
+    "PROGRAM_STARTS",
+    "SELECTED_MOTOR",
+    "SELECT_MOTOR",
+    "SET_BAUD_RATE",
+    "SET_MODE",
+    "SET_SIGNED_POSITIONS",
+    "SET_UNSIGNED_POSITIONS",
+    "SPEED_STEPS",
+    "STATUS",
+]
+
+#: ``""``: status flags.
+STATUS: Form = REGISTRY.form('""')
+#: ``9``: all condition flags.
+CONDITION: Form = REGISTRY.form("9")
+#: ``9{bit}``: one condition bit.
+CONDITION_BIT: Form = REGISTRY.form("9{bit}")
+#: ``F{mt}``: select a motor.
+SELECT_MOTOR: Form = REGISTRY.form("F{mt}")
+#: ``F``: which motor is selected.
+SELECTED_MOTOR: Form = REGISTRY.form("F")
+#: ``E{mode}``: set the operating mode.
+SET_MODE: Form = REGISTRY.form("E{mode}")
+#: ``E``: the operating mode.
+MODE: Form = REGISTRY.form("E")
+#: ``EP``: the position management (0 unsigned, 1 signed).
+POSITION_FORMAT: Form = REGISTRY.form("EP")
+#: ``DL``: every DW setting reloaded from the EEPROM.
+LOAD_SETTINGS: Form = REGISTRY.form("DL")
+#: ``EE///``: erase the EEPROM (silent for up to 20 s).
+ERASE_EEPROM: Form = REGISTRY.form("EE///")
+#: ``I``: open program reception.
+OPEN_PROGRAM: Form = REGISTRY.form("I")
+#: ``K{dt},{du}{dl}``: error output on a mask of output bits.
+ERROR_OUTPUT_MASK: Form = REGISTRY.form("K{dt},{du}{dl}")
+#: ``K{dt},{bt}``: error output on one output bit.
+ERROR_OUTPUT_BITS: Form = REGISTRY.form("K{dt},{bt}")
+#: ``G``, ``G{lb}``, ``GC``: a user program runs (and may print) after these.
+PROGRAM_STARTS: frozenset[Form] = frozenset(REGISTRY.form(k) for k in ("G", "G{lb}", "GC"))
+#: ``GE``, ``GES``: the user program has ended after these.
+PROGRAM_ENDS: frozenset[Form] = frozenset(REGISTRY.form(k) for k in ("GE", "GES"))
+#: The increment and decrement forms of a speed (§10 OHI/OHD, OLI/OLD, OSI/OSD): not
+#: idempotent, so a lost reply is settled by reading the speed back.
+SPEED_STEPS: Mapping[SpeedName, frozenset[Form]] = {
+    name: frozenset((REGISTRY.form(f"{name}I{{id}}"), REGISTRY.form(f"{name}D{{dd}}")))
+    for name in ("OH", "OL", "OS")
+}
+#: ``EP1`` / ``EP0``: signed or unsigned position management.
+SET_SIGNED_POSITIONS: Form = REGISTRY.form("EP1")
+SET_UNSIGNED_POSITIONS: Form = REGISTRY.form("EP0")
+#: ``K{dt},{du}{dl}``, ``K{dt},{bt}``, ``KC``: they clear the limit and EMS bits of ``""``
+#: as a side effect, without reporting them (§10 K forms I, II, IV).
+CLEARS_ERRORS: frozenset[Form] = frozenset(
+    REGISTRY.form(k) for k in ("K{dt},{du}{dl}", "K{dt},{bt}", "KC")
+)
+
+_FRAMING_FLAGS = {"EE": "echo", "EL": "cr_after_ack", "ER": "error_mark", "SUM": "checksum"}
+#: The query of each framing switch (§10 EE, EL, ER, SUM) -> the ``Framing`` field it reads.
+FRAMING_QUERIES: Mapping[Form, str] = {
+    REGISTRY.form(name): flag for name, flag in _FRAMING_FLAGS.items()
+}
+#: Each of the eight framing switches -> the ``Framing`` field it sets, and to what.
+FRAMING_SETTINGS: Mapping[Form, tuple[str, bool]] = {
+    REGISTRY.form(f"{name}{digit}"): (flag, digit == "1")
+    for name, flag in _FRAMING_FLAGS.items()
+    for digit in "01"
+}
+#: ``ES{bp}``: set the baud rate (written to the EEPROM at once).
+SET_BAUD_RATE: Form = REGISTRY.form("ES{bp}")
