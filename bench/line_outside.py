@@ -38,6 +38,7 @@ import argparse
 import asyncio
 import json
 import os
+import re
 import signal
 import socket
 import statistics
@@ -48,7 +49,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from outside_record import analyse_line, analyse_watch
+from outside_record import Row, analyse_line, analyse_watch
 
 HERE = Path(__file__).resolve().parent
 PARTS = str(HERE / "outside_parts.py")
@@ -69,6 +70,7 @@ name = "{axis}"
 #: The console script, run from the tree on sys.path (--src: another one).
 CLI = ("-c", "import sys; from gateway.cli import main; sys.exit(main())")
 READS = ["OH", "OL", "CL", "2D", "OX"]
+STOP_TEXT = re.compile(r"^\$1SS?\\r$")  # as the trace writes it: CR escaped
 
 
 def free_port() -> int:
@@ -192,6 +194,10 @@ async def line_phase(port: int, seconds: float, callers: int) -> tuple[list[floa
         writer.close()
 
     tasks = [asyncio.create_task(caller(n)) for n in range(callers)]
+    # The gateway's line trace notes when each stop is queued, among the frames it writes.
+    trace = {"enabled": True, "clear": True}
+    status, text = await http(port, "PUT", "/api/v1/loops/main/trace", trace)
+    assert status == 200, text
     await asyncio.sleep(0.5)
     start, sent = time.monotonic(), []
     reader, writer = await asyncio.open_connection("127.0.0.1", port)
@@ -205,6 +211,56 @@ async def line_phase(port: int, seconds: float, callers: int) -> tuple[list[floa
     done.set()
     await asyncio.gather(*tasks)
     return sent, start, end
+
+
+def stops_queued(trace: tuple[int, bytes], rows: list[Row]) -> list[float] | None:
+    """When the gateway queued each stop, on the proxy's clock. None: a gateway that does
+    not note them.
+
+    The trace's times are wall-clock; they are put on the proxy's monotonic clock by the
+    frames both saw: the median of (proxy time - trace time) over the traced frames, so a
+    wall clock slewed since the gateway started does not move the marks.
+    """
+    status, text = trace
+    if status != 200:
+        return None
+    lines = json.loads(text)["lines"]
+    notes = [line["time"] for line in lines if line["note"] == "stop queued"]
+    if not notes:
+        return None
+    seen: dict[str, list[float]] = {}
+    for when, name, way, data in rows:
+        if name == "main" and way == "h2d":
+            seen.setdefault(data, []).append(when)
+    rough = time.time() - time.monotonic()
+    shifts = []
+    for line in lines:
+        if line["direction"] != "tx":
+            continue
+        guess = line["time"] - rough
+        near = min(seen.get(line["text"].replace("\\r", "\r"), []), default=None,
+                   key=lambda t: abs(t - guess))  # fmt: skip
+        if near is not None and abs(near - guess) < 0.05:
+            shifts.append(near - line["time"])
+    shift = statistics.median(shifts) if shifts else -rough
+    return [note + shift for note in notes]
+
+
+def frames_before_stops(trace: tuple[int, bytes]) -> int:
+    """Stops with another frame written between their queueing and their own frame, in the
+    order the gateway's own trace has them (no clocks compared)."""
+    lines = json.loads(trace[1])["lines"]
+    behind, waiting = 0, False
+    for line in lines:
+        if line["note"] == "stop queued":
+            waiting = True
+        elif line["direction"] == "tx" and waiting:
+            if STOP_TEXT.match(line["text"]):
+                waiting = False
+            else:
+                behind += 1
+                waiting = False
+    return behind
 
 
 async def sim_lateness(port: int) -> dict[str, Any]:
@@ -273,6 +329,7 @@ async def run(args: argparse.Namespace, bench: Bench) -> dict[str, Any]:
     pid = bench.gateway("gateway", ports["p"], "1,2,3", ports["h"])
     await wait_ready(ports["h"], "/api/v1/axes/x")
     sent, start, end = await line_phase(ports["h"], args.seconds, args.callers)
+    trace = await http(ports["h"], "GET", "/api/v1/loops/main/trace")
     own_late = await sim_lateness(ports["control"])
     # Phase 2: one watched axis moving, nothing else asked.
     move = {"position": 2_000_000, "relative": True, "unit": "pulse"}
@@ -304,7 +361,10 @@ async def run(args: argparse.Namespace, bench: Bench) -> dict[str, Any]:
     cli = parse_start(bench)
     bench.stop(proxy)
     rows = [json.loads(line) for line in record.read_text().splitlines()]
-    line = analyse_line(rows, "main", start, end, sent)
+    queued = stops_queued(trace, rows)
+    line = analyse_line(rows, "main", start, end, sent, queued)
+    if queued is not None:
+        line["stops_behind_another_frame_in_the_gateway_trace"] = frames_before_stops(trace)
     watched = analyse_watch(rows, "main", *watch)
     naive_frames = analyse_watch(rows, "naive", *naive_window)
     idle_frames = [

@@ -62,27 +62,61 @@ def _ms(value: float) -> float:
 
 
 def analyse_line(
-    rows: list[Row], line: str, start: float, end: float, stops_sent: list[float]
+    rows: list[Row],
+    line: str,
+    start: float,
+    end: float,
+    stops_sent: list[float],
+    stops_queued: list[float] | None = None,
 ) -> dict[str, object]:
-    """Line efficiency, simulator lateness, gateway gap and stop latency in [start, end]."""
+    """Line efficiency, simulator lateness, gateway gap and stop latency in [start, end].
+
+    A stop's in-flight remainder is what the exchange on the wire when its request was sent
+    still had to run (0 when it was sent in a gap between two exchanges: then every frame
+    before the stop is one too many). ``stops_queued``: when the gateway queued each stop
+    (its line trace, on this machine's monotonic clock), to split the latency into the
+    HTTP side (request sent -> queued) and the line side (queued -> on the wire, over what
+    the exchange on the wire then still had to run: the scheduler's own part).
+    """
     every = exchanges(rows, line)
     window = [x for x in every if start <= x.sent <= end]
     answered = [x for x in window if x.reply]
     late = [x.reply_end - (x.sent + x.ideal) for x in answered]
     following = {id(a): b for a, b in itertools.pairwise(every)}
     gaps = [following[id(x)].sent - x.reply_end for x in answered if id(x) in following]
-    latencies, excess, behind = [], [], 0
+    latencies, excess, behind, in_gap = [], [], 0, 0
+    enqueue, to_wire, queued_excess, behind_after_queued = [], [], [], 0
+    overtaken: list[dict[str, object]] = []
+    queued = sorted(stops_queued or [])
     for sent in stops_sent:
         after = [x for x in every if x.sent >= sent]
         stop = next((i for i, x in enumerate(after) if STOP.match(x.frame)), None)
         if stop is None:
             continue
-        latencies.append(after[stop].sent - sent)
+        wire = after[stop].sent
+        latencies.append(wire - sent)
         behind += stop > 0
         flight = [x for x in every if x.sent < sent <= x.reply_end]
+        in_gap += not flight
         remainder = flight[-1].reply_end - sent if flight else 0.0
-        excess.append(after[stop].sent - sent - remainder)
-    return {
+        excess.append(wire - sent - remainder)
+        mark = next((q for q in queued if sent <= q <= wire), None)
+        if mark is not None:
+            enqueue.append(mark - sent)
+            to_wire.append(wire - mark)
+            busy = [x for x in every if x.sent < mark <= x.reply_end]
+            queued_excess.append(wire - mark - (busy[-1].reply_end - mark if busy else 0.0))
+            ahead = [x for x in after[:stop] if mark < x.sent < wire]
+            behind_after_queued += bool(ahead)
+            if ahead:  # what went out between the queueing and the stop (ms after queued)
+                overtaken.append(
+                    {
+                        "http_to_queued_ms": _ms(mark - sent),
+                        "ahead": [(x.frame, _ms(x.sent - mark)) for x in ahead],
+                        "stop_ms": _ms(wire - mark),
+                    }
+                )
+    figures: dict[str, object] = {
         "exchanges": len(window),
         "line_efficiency": round(sum(x.ideal for x in window) / (end - start), 4),
         "line_efficiency_target": ">= 0.97",
@@ -95,10 +129,25 @@ def analyse_line(
         "stops": len(latencies),
         "stop_latency_ms_p50": _ms(percentile(latencies, 0.5)),
         "stop_latency_ms_p99": _ms(percentile(latencies, 0.99)),
+        "stop_over_in_flight_ms_p50": _ms(percentile(excess, 0.5)),
         "stop_over_in_flight_ms_p99": _ms(percentile(excess, 0.99)),
+        "stops_sent_in_a_gap": in_gap,
         "stops_behind_another_exchange": behind,
         "stop_target": "<= in-flight remainder + 3 ms, never behind another exchange",
     }
+    if stops_queued is not None:
+        figures |= {
+            "stops_seen_queued": len(enqueue),
+            "stop_http_to_queued_ms_p50": _ms(percentile(enqueue, 0.5)),
+            "stop_http_to_queued_ms_p99": _ms(percentile(enqueue, 0.99)),
+            "stop_queued_to_wire_ms_p50": _ms(percentile(to_wire, 0.5)),
+            "stop_queued_to_wire_ms_p99": _ms(percentile(to_wire, 0.99)),
+            "stop_queued_over_in_flight_ms_p50": _ms(percentile(queued_excess, 0.5)),
+            "stop_queued_over_in_flight_ms_p99": _ms(percentile(queued_excess, 0.99)),
+            "stops_behind_another_exchange_once_queued": behind_after_queued,
+            "stops_overtaken_once_queued": overtaken,
+        }
+    return figures
 
 
 def analyse_watch(rows: list[Row], line: str, start: float, end: float) -> dict[str, float]:

@@ -45,7 +45,7 @@ from gateway.protocol.reply_parser import (
     NotAccepted,
     ReplyEvent,
 )
-from gateway.protocol.spec import ReplyFormat, Scope
+from gateway.protocol.spec import Effect, ReplyFormat, Scope
 
 __all__ = ["DOUBT", "FRAMING_KEYS", "LoopCore", "Sent", "decode_for"]
 
@@ -54,6 +54,8 @@ _PROBE = confirm_command()
 
 #: Kinds after which nobody knows what the controller did or how it is set up.
 DOUBT = frozenset({ReplyKind.TIMEOUT, ReplyKind.GARBLED, ReplyKind.CHECKSUM})
+#: Replies every subscriber hears at once (``EventBus.defer`` is for the others).
+_AT_ONCE = frozenset({Effect.MOTION, Effect.STOP})
 #: The forms that switch the framing (§10 EE, EL, ER, SUM).
 FRAMING_KEYS = frozenset({"EE1", "EE0", "EL1", "EL0", "ER1", "ER0", "SUM1", "SUM0"})
 
@@ -90,6 +92,7 @@ class LoopCore:
         counters: Counters,
         bus: EventBus[BusEvent],
         clock: Callable[[], float],
+        serve_stops: Callable[[], Awaitable[None]] | None = None,
     ) -> None:
         self.name = name
         self.config = config
@@ -107,9 +110,14 @@ class LoopCore:
         self.eeprom_event = asyncio.Event()
         #: controllers that are deaf until this host time (EE/// erases in silence, §10 EE///)
         self.deaf_until: dict[str, float] = {}
-        #: set by the scheduler when a stop waits; runs the queued stops (EEPROM holds)
+        #: set by the scheduler when a stop waits; ``serve_stops`` runs the queued stops
+        #: (before any frame of a transaction in flight, and while an EEPROM write holds)
         self.stop_waiting = asyncio.Event()
-        self.serve_stops: Callable[[], Awaitable[None]] | None = None
+        self.serve_stops = serve_stops
+        self._serving_stops = False
+        #: stops sent per controller from inside another transaction: one that a stop to its
+        #: controller overtook sends nothing more that acts (``TransactionRunner``)
+        self.stops_sent: dict[str, int] = {}
         #: controllers whose framing read-back failed since the link came up (not retried)
         self.detect_failed: set[str] = set()
         #: controllers that have answered on this loop (kept across reconnects: the line is
@@ -183,10 +191,26 @@ class LoopCore:
     # ------------------------------------------------------------------ one frame
 
     async def send(self, body: str, command: Command, motor: int | None = None) -> Sent:
-        """Send ``command`` once and classify its reply; ``LinkLost`` if the line goes."""
+        """Send ``command`` once and classify its reply; ``LinkLost`` if the line goes.
+
+        A stop queued meanwhile goes first (DESIGN invariant 8): it is the next frame on the
+        wire even in the middle of a transaction.
+        """
+        if self.stop_waiting.is_set():
+            await self.stops_first()
         sent = await self._send(body, command, motor)
         self.check_health(body)
         return sent
+
+    async def stops_first(self) -> None:
+        """Send the queued stops now (not from inside a stop being sent)."""
+        if self._serving_stops or self.serve_stops is None:
+            return
+        self._serving_stops = True
+        try:
+            await self.serve_stops()
+        finally:
+            self._serving_stops = False
 
     def needs_probe(self) -> str | None:
         """After a time-out in silence: a controller to read now (None: no need).
@@ -231,6 +255,11 @@ class LoopCore:
             series=series,
             reply_len=reply_chars(command, reply_framing, len(frame)),
         )
+        # The reply is in: until the next frame is written, only what chooses it hears of it.
+        # Not after a motion or a stop: a subscriber may withdraw what must not follow it
+        # (the poller's reads that are refused while a motor moves, 動作中 ×).
+        if command.form.effect not in _AT_ONCE:
+            self.bus.defer()
         self.counters.exchanges += 1
         sent = self._classify(body, command, exchange.event, reply_framing, motor, exchange.late)
         self._after(body, command, sent, framing, motor)

@@ -8,7 +8,6 @@ carries frames.
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass
 
 __all__ = ["Counters", "CountersSnapshot"]
@@ -60,5 +59,5 @@ class Counters:
     link_downs: int = 0
 
     def snapshot(self) -> CountersSnapshot:
-        """An immutable copy."""
-        return CountersSnapshot(**dataclasses.asdict(self))
+        """An immutable copy (of plain numbers: no deep copy as ``asdict`` makes)."""
+        return CountersSnapshot(**vars(self))

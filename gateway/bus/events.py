@@ -14,6 +14,7 @@ the WebSocket feed's ring (``gateway.service.feed``).
 
 from __future__ import annotations
 
+import asyncio
 import logging
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -144,34 +145,74 @@ class EventBus(Generic[EventT]):
     that raises is logged and skipped; the publisher and the other callbacks never see it.
     A reader that must not run inside the publisher (a socket, a slow consumer) keeps its own
     bounded buffer and decides there what falling behind means (the feed drops the client).
+    The loop scheduler's bus carries ``BusEvent``s; the service layer's ``ServiceEvents`` is
+    the same bus for its own events.
+
+    The line first (DESIGN invariant 12): the scheduler calls ``defer`` when a reply is in,
+    and from then until its task next yields (its next frame is on the wire by then, or it
+    has nothing to send) events reach only the *urgent* subscribers at once: what decides the
+    next frame (the state cache's selection and motion, the programs that may print). Every
+    other subscriber gets them, in order, right after; before any caller's task wakes up to
+    read its result. (The scheduler does not defer after a motion or a stop: see ``core``.)
     """
 
     def __init__(self) -> None:
+        self._urgent: list[Callable[[EventT], None]] = []
         self._callbacks: list[Callable[[EventT], None]] = []
+        #: events waiting for the non-urgent subscribers (None: deliver at once)
+        self._held: list[EventT] | None = None
 
     def subscribe(
-        self, callback: Callable[[EventT], None], *, first: bool = False
+        self, callback: Callable[[EventT], None], *, first: bool = False, urgent: bool = False
     ) -> Callable[[], None]:
         """Call ``callback(event)`` for every event from now on; returns the unsubscriber.
 
-        ``first``: before every other subscriber, whenever they subscribed (the state cache:
-        what a subscriber reads there has always learnt the event it is handed).
+        ``first``: before every other subscriber of its kind, whenever they subscribed (the
+        state cache: what a subscriber reads there has always learnt the event it is handed).
+        ``urgent``: at once even while delivery is deferred (``defer``), before the others:
+        for what the scheduler reads to choose its next frame; it must be quick.
         """
+        group = self._urgent if urgent else self._callbacks
         if first:
-            self._callbacks.insert(0, callback)
+            group.insert(0, callback)
         else:
-            self._callbacks.append(callback)
+            group.append(callback)
 
         def unsubscribe() -> None:
-            if callback in self._callbacks:
-                self._callbacks.remove(callback)
+            if callback in group:
+                group.remove(callback)
 
         return unsubscribe
 
+    def defer(self) -> None:
+        """Until the calling task yields, deliver to urgent subscribers only (see the class)."""
+        if self._held is None:
+            self._held = []
+            asyncio.get_running_loop().call_soon(self.release)
+
+    def release(self) -> None:
+        """Deliver what ``defer`` held back, in order (events they publish meanwhile too)."""
+        held, self._held = self._held, None
+        for event in held or ():
+            self._deliver(event)
+
     def publish(self, event: EventT) -> None:
-        """Deliver ``event`` to every subscriber now."""
-        for callback in list(self._callbacks):
-            try:
-                callback(event)
-            except Exception:  # one bad subscriber must not stop the publisher
-                log.exception("event subscriber %r failed on %r", callback, event)
+        """Deliver ``event`` to every subscriber now (the urgent ones only, while deferred)."""
+        for callback in self._urgent:
+            self._call(callback, event)
+        if self._held is not None:
+            self._held.append(event)
+        else:
+            self._deliver(event)
+
+    def _deliver(self, event: EventT) -> None:
+        callbacks = self._callbacks
+        for callback in list(callbacks):
+            self._call(callback, event)
+
+    @staticmethod
+    def _call(callback: Callable[[EventT], None], event: EventT) -> None:
+        try:
+            callback(event)
+        except Exception:  # one bad subscriber must not stop the loop
+            log.exception("event subscriber %r failed on %r", callback, event)

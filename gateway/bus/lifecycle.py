@@ -1,12 +1,12 @@
 """The running side of a loop's scheduler: connect, serve the queue, go down, reconnect.
 
 One task runs the queue: the highest priority first, FIFO within a priority, one transaction
-at a time, a stop as soon as the transaction in flight ends (DESIGN invariant 8). When the
-transport raises ``TransportClosed``, or ``timeouts_to_down`` time-outs in a row bring no byte
-at all, the loop goes DOWN: queued requests fail at once with ``LoopDown`` (with a retry-after
-hint) and the port is reopened with backoff. When it is back, the motor-selection and framing
-caches are dropped and ``LinkUp`` is published: the state layer re-reads the controllers from
-the devices, never from cache. ``scheduler.LoopScheduler`` adds the callers' side.
+at a time; a stop before the next frame, inside a transaction too (DESIGN invariant 8,
+``LoopCore.send``). When the transport raises ``TransportClosed``, or ``timeouts_to_down``
+time-outs in a row bring no byte, the loop goes DOWN: queued requests fail at once with
+``LoopDown`` (with a retry-after hint) and the port is reopened with backoff (doubling, with
+jitter). Once back, the selection and framing caches are dropped and ``LinkUp`` is published:
+the state layer re-reads the controllers from the devices. ``scheduler`` adds the callers' side.
 """
 
 from __future__ import annotations
@@ -30,8 +30,8 @@ from gateway.bus.events import (
     TransactionDone,
     UnsolicitedMessage,
 )
-from gateway.bus.framing_track import hint_from_stray
 from gateway.bus.link import Link, LinkLost
+from gateway.bus.messages import framing_artefact, stray_hint
 from gateway.bus.programs_seen import ProgramsSeen
 from gateway.bus.queue import Request, RequestQueue
 from gateway.bus.requests import LoopDown, Priority, TransactionResult
@@ -43,6 +43,7 @@ from gateway.bus.transaction import TransactionRunner
 from gateway.protocol.framing import BODY_NUMBERS
 from gateway.protocol.reply_parser import ReplyEvent, Unsolicited, UnsolicitedKind
 from gateway.transport.base import Transport, TransportClosed
+from gateway.transport.factory import Backoff
 
 __all__ = ["LinkState", "LoopLifecycle"]
 
@@ -82,8 +83,9 @@ class LoopLifecycle:
             host_latency=config.host_latency,
             quiet_chars=config.quiet_chars,
         )
+        self._wake = asyncio.Event()
         self._programs = ProgramsSeen()
-        self.events.subscribe(self._programs.handle)
+        self.events.subscribe(self._programs.handle, urgent=True)  # the parser's `printing`
         self._link = Link(
             transport,
             self.timing,
@@ -91,24 +93,30 @@ class LoopLifecycle:
             self.trace,
             on_unsolicited=self._unsolicited,
             on_stray=self._stray,
-            on_lost=self._wake_up,
+            on_lost=self._wake.set,
             clock=clock,
             programs=self._programs,
         )
         self._core = LoopCore(
-            self.name, config, self.timing, self._link, self.counters, self.events, clock
+            self.name,
+            config,
+            self.timing,
+            self._link,
+            self.counters,
+            self.events,
+            clock,
+            serve_stops=self._serve_stops,
         )
-        self._core.serve_stops = self._serve_stops
-        self._wake = asyncio.Event()
         self._queue = RequestQueue(self.name, clock, self._queued, aging=config.poll_aging_real)
         self.state = LinkState.CONNECTING
         self.cause = "not connected yet"
-        self._backoff = config.reconnect_initial_real
+        first = max(1e-6, min(config.reconnect_initial_real, config.reconnect_max_real))
+        self._backoff = Backoff(first, max(first, config.reconnect_max_real))  # with jitter
+        self._delay = self._backoff.next_delay()  # the next wait before reopening
         self._retry_at: float | None = None
         self._task: asyncio.Task[None] | None = None
         self._first_attempt = asyncio.Event()
-        #: set while no transaction is in flight (graceful shutdown waits on it)
-        self._idle = asyncio.Event()
+        self._idle = asyncio.Event()  # set while no transaction is in flight (shutdown waits)
         self._idle.set()
         #: the state cache the scheduler feeds first and reads: its own until ``use_state``
         self.state_cache: StateCache = self._core.state
@@ -121,11 +129,8 @@ class LoopLifecycle:
         return self.counters.snapshot()
 
     def _queued(self) -> None:
-        if self._queue.head_priority() is Priority.STOP:
+        if self._queue.head_priority() is Priority.STOP:  # before any frame of a transaction
             self._core.stop_waiting.set()
-        self._wake.set()
-
-    def _wake_up(self) -> None:
         self._wake.set()
 
     def down_error(self) -> LoopDown:
@@ -155,9 +160,11 @@ class LoopLifecycle:
         self._unfeed = self._feed(state, first=first)
 
     def _feed(self, state: StateCache, *, first: bool = True) -> Callable[[], None]:
-        return self.events.subscribe(
-            lambda e: state.handle(e, queue_depth=len(self._queue)), first=first
-        )
+        # Urgent: the next frame depends on it (selection, motion: ``_must_wait``).
+        def feed(e: BusEvent) -> None:  # the depth (a count) only where it is published
+            state.handle(e, queue_depth=len(self._queue) if type(e) is TransactionDone else None)
+
+        return self.events.subscribe(feed, first=first, urgent=True)
 
     def _must_wait(self, request: Request) -> bool:
         """A per-motor request whose F would be refused now: a motor of its controller moves
@@ -204,8 +211,8 @@ class LoopLifecycle:
                 self._first_attempt.set()
                 # Backoff after a failed open and after a loss alike; it is reset by a
                 # transaction that heard the line, so a dead line is not reopened in a spin.
-                await asyncio.sleep(self._backoff)
-                self._backoff = min(self._backoff * 2, self.config.reconnect_max_real)
+                await asyncio.sleep(self._delay)
+                self._delay = self._backoff.next_delay()
         finally:
             self._first_attempt.set()
 
@@ -222,7 +229,7 @@ class LoopLifecycle:
                 await self._go_down(f"cannot open {self.transport.url}: {exc}")
             else:
                 self.cause = f"cannot open {self.transport.url}: {exc}"
-                self._retry_at = self.clock() + self._backoff
+                self._retry_at = self.clock() + self._delay
             return False
         self._link.start()
         self._forget_all()
@@ -269,14 +276,14 @@ class LoopLifecycle:
         self.state = LinkState.DOWN
         self.cause = cause
         self.counters.link_downs += 1
-        self._retry_at = self.clock() + self._backoff
+        self._retry_at = self.clock() + self._delay
         log.warning("loop %s down: %s", self.name, cause)
         self._fail_queued()
         await self._link.stop()
         with contextlib.suppress(Exception):
             await self.transport.close()
         self.events.publish(
-            LinkDown(loop=self.name, time=self.clock(), cause=cause, retry_after=self._backoff)
+            LinkDown(loop=self.name, time=self.clock(), cause=cause, retry_after=self._delay)
         )
 
     async def _serve(self) -> None:
@@ -298,12 +305,15 @@ class LoopLifecycle:
                 await self._wake.wait()
                 continue
             await self._execute(request)
-            if self._link.heard_any:
-                self._backoff = self.config.reconnect_initial_real
+            if self._link.heard_any and self._backoff.attempts > 1:
+                self._backoff.reset()
+                self._delay = self._backoff.next_delay()
 
     async def _serve_stops(self) -> None:
         """Run the queued stops now (from inside a transaction that holds the line)."""
+        stops = self._core.stops_sent
         while (request := self._queue.pop(only=Priority.STOP)) is not None:
+            stops[request.body] = stops.get(request.body, 0) + 1
             await self._execute(request)
         self._core.stop_waiting.clear()
 
@@ -314,6 +324,7 @@ class LoopLifecycle:
         runner = TransactionRunner(
             self._core, request.body, request.commands, request.motor, request.program
         )
+        outermost = self._idle.is_set()  # a stop runs inside the transaction it overtook
         self._idle.clear()
         try:
             results, exchanges = await runner.run()
@@ -329,11 +340,14 @@ class LoopLifecycle:
             self._fail(request, exc)
             return
         finally:
-            self._idle.set()
+            if outermost:
+                self._idle.set()
         result = TransactionResult(
             self.name, request.body, tuple(results), started, self.clock(), exchanges
         )
         self.counters.transactions += 1
+        # The subscribers hear of it once the next frame is out (the waiters after them).
+        self.events.defer()
         self.events.publish(
             TransactionDone(
                 loop=self.name,
@@ -354,14 +368,15 @@ class LoopLifecycle:
 
     @staticmethod
     def _fail(request: Request, error: Exception) -> None:
-        for waiter in request.waiters:
-            if not waiter.future.done():
-                waiter.future.set_exception(error)
+        for waiter in (w for w in request.waiters if not w.future.done()):
+            waiter.future.set_exception(error)
 
     # ------------------------------------------------------------------ messages
 
     def _unsolicited(self, event: Unsolicited) -> None:
-        if event.kind is UnsolicitedKind.PROGRAM_OUTPUT and self._framing_artefact(event):
+        if event.kind is UnsolicitedKind.PROGRAM_OUTPUT and framing_artefact(
+            event, self._core.framing, self._link, self.counters
+        ):
             return
         body = event.body
         if body is None and event.kind is UnsolicitedKind.PROGRAM_OUTPUT:
@@ -381,36 +396,5 @@ class LoopLifecycle:
             )
         )
 
-    def _framing_artefact(self, event: Unsolicited) -> bool:
-        """Whether "program output" is a reply in a framing the gateway did not expect.
-
-        Such bytes are a framing hint, not a program's output, and are not published.
-        """
-        tracker, body, link = self._core.framing, event.body, self._link
-        if link.is_echo(event.raw):
-            # Our own frame came back: the controller has EE1 on (§10 EE).
-            if body is not None:
-                tracker.suspect(body, "the frame came back (EE1?)")
-            return True
-        if body is not None and body == link.pending_body and tracker.suspicion(body):
-            self.counters.garbled += 1  # the data part that followed that echo
-            return True
-        last = link.last_body
-        # '>@' of ER1 read as '>' then '@' while ER0 was assumed (§10 ER); a running
-        # program's '@' comes from a controller whose framing was read back.
-        if (
-            event.raw == b"@"
-            and last is not None
-            and not tracker.confirmed(last)
-            and not tracker.get(last).error_mark
-        ):
-            tracker.suspect(last, "'@' after '>' (ER1?)")
-            return True
-        return False
-
     def _stray(self, event: ReplyEvent, body: str | None) -> None:
-        if body is None:
-            return
-        why = hint_from_stray(event, self._core.framing.get(body))
-        if why is not None:
-            self._core.framing.suspect(body, why)
+        stray_hint(event, body, self._core.framing)

@@ -81,7 +81,7 @@ class Link(Receiver):
         try:
             self._write(body, frame, started)
             limit = self.timing.real(self.timing.reply_timeout(sent_before + len(frame), reply_len))
-            await asyncio.wait({pending.future}, timeout=limit)
+            await pending.wait(limit)
             late = False
             if not pending.future.done():
                 late = await self._late_window(pending, reply_len, limit)
@@ -115,7 +115,7 @@ class Link(Receiver):
         end = loop.time() + max(limit, quiet)
         while not pending.future.done() and loop.time() < end:
             mark = self._rx_chunks
-            await asyncio.wait({pending.future}, timeout=min(quiet, max(0.0, end - loop.time())))
+            await pending.wait(min(quiet, max(0.0, end - loop.time())))
             if self._rx_chunks == mark:  # a whole quiet period without a byte
                 break
         if not pending.future.done():

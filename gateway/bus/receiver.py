@@ -54,13 +54,48 @@ class LinkLost(Exception):
 
 
 class Pending:
-    """The exchange awaiting its reply."""
+    """The exchange awaiting its reply.
+
+    ``future`` holds the reply (or ``LinkLost``); ``wake`` is what the exchange awaits now: it
+    is woken by the reply or by its time-out, so the scheduler resumes one hop after the
+    reply's last byte (``asyncio.wait`` would take two, letting other work in between).
+    """
 
     def __init__(self, body: str, future: asyncio.Future[ReplyEvent]) -> None:
         self.body = body
         self.future = future
         self.late_phase = False
         self.heard = False
+        self.wake: asyncio.Future[None] | None = None
+
+    def resolve(self, event: ReplyEvent) -> None:
+        """The reply came: keep it and wake the exchange."""
+        self.future.set_result(event)
+        self.rouse()
+
+    def fail(self, error: Exception) -> None:
+        """The line went: the exchange raises ``error``."""
+        self.future.set_exception(error)
+        self.rouse()
+
+    def rouse(self) -> None:
+        """Wake the exchange (its reply came, the line went, or its time is up)."""
+        wake = self.wake
+        if wake is not None and not wake.done():
+            wake.set_result(None)
+
+    async def wait(self, timeout: float) -> None:
+        """Until the reply (or the loss of the line) or ``timeout`` real seconds."""
+        if self.future.done():
+            return
+        loop = asyncio.get_running_loop()
+        self.wake = wake = loop.create_future()
+        timer = loop.call_later(timeout, self.rouse)
+        try:
+            await wake
+        finally:
+            timer.cancel()
+            self.wake = None
 
 
 class Receiver:
@@ -141,7 +176,7 @@ class Receiver:
         self._idle.set()
         pending = self._pending
         if pending is not None and not pending.future.done():
-            pending.future.set_exception(LinkLost(self.lost_cause))
+            pending.fail(LinkLost(self.lost_cause))
 
     # ------------------------------------------------------------------ receiving
 
@@ -205,7 +240,7 @@ class Receiver:
         pending = self._pending
         if event.is_reply and pending is not None and not pending.future.done():
             self.last_body = pending.body
-            pending.future.set_result(event)
+            pending.resolve(event)
             return
         if isinstance(event, Unsolicited) and event.kind in ALWAYS_MEANT:
             self._on_unsolicited(event)  # '$B#*' / '$B#T' are never a reply (parser notes)

@@ -1,7 +1,9 @@
 """What a caller hands the loop scheduler and what it gets back.
 
 A request is one *transaction*: a sequence of commands to one controller that no other request
-interleaves (issue 4, "Atomic transactions"). Its ``Priority`` decides its place in the queue;
+interleaves, except a stop: it goes before the transaction's next frame, and one to the same
+controller ends what the transaction had still to do that acts. Its ``Priority`` decides its
+place in the queue;
 its result says, per command, what the controller answered and whether the command took effect
 (``Outcome``): after a lost reply the scheduler reads the axis back instead of guessing
 (DESIGN.md invariant 6), so a caller always learns ``DONE``, ``NOT_DONE`` or ``UNKNOWN``.
@@ -40,7 +42,7 @@ STOP_KEYS = frozenset({"S", "SS", "GES"})
 class Priority(IntEnum):
     """Queue order: lower goes first; FIFO within one priority."""
 
-    STOP = 0  # S, SS, GES: out as soon as the transaction in flight ends
+    STOP = 0  # S, SS, GES: the next frame out, even inside a transaction in flight
     OPERATOR = 1  # commands of people and integrations
     POLL = 2  # background polling
 

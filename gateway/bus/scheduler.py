@@ -15,6 +15,7 @@ from collections.abc import Sequence
 
 from gateway.bus.lifecycle import LinkState, LoopLifecycle
 from gateway.bus.requests import STOP_KEYS, Priority, TransactionError, TransactionResult
+from gateway.bus.trace import Direction
 from gateway.protocol.framing import BODY_NUMBERS, Framing
 from gateway.protocol.models import Command
 from gateway.protocol.program import Program
@@ -150,6 +151,8 @@ class LoopScheduler(LoopLifecycle):
             )
         if deadline is None:
             deadline = self.config.deadline_for(priority)
+        if priority is Priority.STOP:  # when it was asked for, beside when it went out
+            self.trace.add(self.clock(), Direction.NOTE, body, b"", "stop queued")
         waiter = self._queue.put(
             body, commands, priority=priority, motor=motor, program=program, deadline=deadline
         )

@@ -11,6 +11,10 @@ For each command of the caller:
    otherwise read back and reported DONE / NOT_DONE / UNKNOWN (DESIGN invariant 6);
 5. EEPROM writes hold the line until their ``$B#*`` (§10 AW, DW, IW, EE///), serving stops.
 
+A stop queued meanwhile goes out before the transaction's next frame (``LoopCore.send``); once
+a stop to its own controller has gone, the transaction sends no more commands that act (only
+reads): the stop must not be undone by the move queued behind it.
+
 The first command that is not DONE ends the transaction; the rest are reported SKIPPED.
 """
 
@@ -41,7 +45,7 @@ from gateway.protocol.program import Program
 from gateway.protocol.registry import parse
 from gateway.protocol.replies import ReplyValue
 from gateway.protocol.reply_values import StatusFlags
-from gateway.protocol.spec import ReplyFormat
+from gateway.protocol.spec import Effect, ReplyFormat
 
 __all__ = ["FLAG_CLEARING_FORMS", "TransactionRunner"]
 
@@ -68,6 +72,8 @@ class TransactionRunner:
         self.commands = commands
         self.motor = motor
         self.program = program
+        #: stops sent to the controller before the transaction started
+        self._stops = core.stops_sent.get(body, 0)
 
     async def run(self) -> tuple[list[CommandResult], int]:
         """Every command's result, and the number of frames sent."""
@@ -162,6 +168,11 @@ class TransactionRunner:
             refused = await self._prepare(st)
             if refused is not None:
                 return refused
+            if core.stop_waiting.is_set():
+                await core.stops_first()
+            if self._overtaken(command):
+                note = "a stop to this controller went out first: not sent"
+                return st.result(ReplyKind.SKIPPED, Outcome.NOT_DONE, note)
             st.mark = core.eeprom_done.get(body, 0)
             sent = await core.send(body, command, self.motor)
             st.attempts += 1
@@ -184,6 +195,12 @@ class TransactionRunner:
                     return st.result(sent.kind, Outcome.UNKNOWN, sent.note)
                 return await self._verify(st, sent.kind)
             return await self._finish(st, sent)
+
+    def _overtaken(self, command: Command) -> bool:
+        """A stop to this controller went out during the transaction, and ``command`` acts."""
+        if self.core.stops_sent.get(self.body, 0) == self._stops:
+            return False
+        return command.form.effect not in (Effect.QUERY, Effect.STOP)
 
     async def _prepare(self, st: _Step) -> CommandResult | None:
         """F first when needed; the pre-reads of motion and non-idempotent settings."""

@@ -94,7 +94,9 @@ class Bus:
 
     def once_after(self, wire: str, action: Callable[[], None], nth: int = 1) -> None:
         """Run ``action`` right after the ``nth`` published reply to the command ``wire``
-        (the scheduler reads a motion's position twice before it: ``nth=2``)."""
+        (the scheduler reads a motion's position twice before it: ``nth=2``). It hears the
+        reply as the state cache does, before the scheduler writes its next frame (``urgent``):
+        a fault armed here hits that frame."""
         fired: list[bool] = []
 
         def watch(event: BusEvent) -> None:
@@ -103,7 +105,7 @@ class Bus:
                 if len(fired) == nth:
                     action()
 
-        self.scheduler.events.subscribe(watch)
+        self.scheduler.events.subscribe(watch, urgent=True)
 
     async def wait_idle(self, body: str = "1", limit: int = 2000) -> None:
         """Poll ``""`` through the scheduler until bit 0 (moving) is 0 (§13-2 CHECK)."""

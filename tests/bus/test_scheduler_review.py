@@ -46,7 +46,10 @@ async def test_a_stop_whose_caller_went_away_still_goes_out(make_bus: MakeBus) -
     await bus.scheduler.submit("1", parse(""))
     assert stop and stop[0].cancelled()
     # The machine must stop although the HTTP client that asked went away.
-    assert bus.texts()[8:] == ["SS", ""]
+    # (It goes out before the block's next frame: the block's reads go on after it.)
+    texts = bus.texts()
+    assert texts.count("SS") == 1 and texts[-1] == "", texts
+    assert [t for t in texts if t != "SS"] == [c.wire() for c in _block()] + [""]  # type: ignore[attr-defined]
 
 
 async def test_a_stop_never_expires_by_deadline(make_bus: MakeBus) -> None:
@@ -64,7 +67,8 @@ async def test_a_stop_never_expires_by_deadline(make_bus: MakeBus) -> None:
     await bus.scheduler.submit("1", _block())  # type: ignore[arg-type]
     result = await asyncio.wait_for(stop[0], 5.0)
     assert result.outcome is Outcome.DONE  # type: ignore[attr-defined]
-    assert bus.texts()[8:] == ["S"]
+    texts = bus.texts()
+    assert texts.count("S") == 1 and texts.index("S") < 8, texts  # before the block's end
 
 
 class _BrokenDriver(Transport):
