@@ -43,6 +43,7 @@ from gateway.api.security import AuthConfig, install_security
 from gateway.service.axes.service import AxisService
 from gateway.service.baud import BaudChanger
 from gateway.service.controllers.service import ControllerService
+from gateway.service.control import ControlChange
 from gateway.service.feed import Feed
 from gateway.service.leases import Leases
 from gateway.service.operations.registry import Operations
@@ -82,13 +83,11 @@ def create_app(gateway: Runtime, *, auth: AuthConfig) -> FastAPI:
     operations = Operations(gateway)
     operations.on_resolved(lambda op: audit.record(resolution_entry(op, API_PREFIX)))
     # An admin's change of the control state is its request's entry; a key switch's has none.
-    gateway.control.listen(
-        lambda change: (
+    def audit_key_switch(change: ControlChange) -> None:
+        if change.source == "key_switch":
             audit.record(control_entry(change, API_PREFIX))
-            if change.source == "key_switch"
-            else None
-        )
-    )
+
+    gateway.control.changes.subscribe(audit_key_switch)
     feed = Feed(
         gateway.topology,
         gateway.state,

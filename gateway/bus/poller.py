@@ -102,7 +102,7 @@ class Poller:
         #: the moving axes' positions, read back to back in turn
         self._positions = PositionStream(scheduler, state, loop, on_still=self.poll_now)
         self._plan.restart()
-        state.listen(self._on_change)
+        state.changes.subscribe(self._on_change)
 
     # ------------------------------------------------------------------ control
 

@@ -101,10 +101,6 @@ class StateCache:
         """The number of the latest change (0: none yet)."""
         return self._seq
 
-    def listen(self, callback: Callable[[Change], None]) -> Callable[[], None]:
-        """``changes.subscribe(callback)``: every change from now on; returns the unsubscriber."""
-        return self.changes.subscribe(callback)
-
     def loop(self, name: str) -> LoopState:
         """One loop (a blank one if nothing was heard of it)."""
         return self._fold(self._loops, name) or LoopState(name)

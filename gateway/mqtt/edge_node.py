@@ -72,7 +72,7 @@ class EdgeNode:
         self._busy_mark: dict[str, tuple[float, float]] = {}  # loop -> (busy, host time)
         self._utilisation: dict[str, float | None] = {}
         self._unlisten = [
-            gateway.state.listen(self._on_change),
+            gateway.state.changes.subscribe(self._on_change),
             gateway.events.subscribe(self._on_event),
             *(s.events.subscribe(self._on_bus) for s in gateway.schedulers.values()),
         ]

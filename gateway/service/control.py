@@ -29,6 +29,7 @@ from typing import Literal
 
 from pydantic import BaseModel, Field
 
+from gateway.bus.events import EventBus
 from gateway.errors import ConflictError
 from gateway.service.config import LocalInputSettings
 from gateway.service.events import EventKind, ServiceEvent, ServiceEvents
@@ -143,11 +144,8 @@ class ControlStates:
             settings = local_input_of(topology, ref)
             if settings is not None:
                 self._switches[ref.id] = _Switch(settings, since=now)
-        self._listeners: list[Callable[[ControlChange], object]] = []
-
-    def listen(self, listener: Callable[[ControlChange], object]) -> None:
-        """Call ``listener`` with every change of a controller's state."""
-        self._listeners.append(listener)
+        #: every change of a controller's state (a failing subscriber is logged, never raised)
+        self.changes: EventBus[ControlChange] = EventBus()
 
     # ------------------------------------------------------------------ reading
 
@@ -285,8 +283,7 @@ class ControlStates:
             if view.state is previous and view.sources == sources:
                 continue
             change = ControlChange(ref, previous, view, cause, source)
-            for listener in self._listeners:
-                listener(change)
+            self.changes.publish(change)
             if self.events is not None:
                 data = {
                     "controller": ref.id,

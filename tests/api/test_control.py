@@ -40,7 +40,7 @@ def _moves(heard: list[str]) -> list[str]:
 
 async def _changes(api: Api) -> asyncio.Queue[ControlChange]:
     queue: asyncio.Queue[ControlChange] = asyncio.Queue()
-    api.gateway.control.listen(queue.put_nowait)
+    api.gateway.control.changes.subscribe(queue.put_nowait)
     return queue
 
 

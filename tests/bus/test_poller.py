@@ -169,7 +169,7 @@ async def test_an_error_the_poller_cleared_is_reported_until_acknowledged(
 ) -> None:
     r = await rig("12", scale=5.0)
     seen: list[Change] = []
-    r.state.listen(seen.append)  # a subscriber (a dashboard, say)
+    r.state.changes.subscribe(seen.append)  # a subscriber (a dashboard, say)
     await r.until(lambda: r.state.controller(LOOP, "1").version is not None)
     await move(r, "1", 1, 20000)
     await r.until(lambda: r.state.axis(LOOP, "1", 1).moving)

@@ -104,7 +104,7 @@ class MotionWatch:
         self._tasks: set[asyncio.Task[Any]] = set()
         self._unsubscribe = [
             gateway.state.follow(self._on_bus),
-            gateway.state.listen(self._on_change),
+            gateway.state.changes.subscribe(self._on_change),
         ]
 
     def close(self) -> None:

@@ -68,7 +68,7 @@ class StateLog:
         for name, scheduler in self.gateway.schedulers.items():
             self._loops[name] = _LoopLog(summarised_at=self.clock())
             self._stops.append(scheduler.events.subscribe(self._on_bus))
-        self._stops.append(self.gateway.state.listen(self._on_change))
+        self._stops.append(self.gateway.state.changes.subscribe(self._on_change))
 
     def stop(self) -> None:
         """Unsubscribe."""
