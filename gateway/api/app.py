@@ -42,8 +42,8 @@ from gateway.api.redaction import install_log_redaction
 from gateway.api.security import AuthConfig, install_security
 from gateway.service.axes.service import AxisService
 from gateway.service.baud import BaudChanger
-from gateway.service.controllers.service import ControllerService
 from gateway.service.control import ControlChange
+from gateway.service.controllers.service import ControllerService
 from gateway.service.feed import Feed
 from gateway.service.leases import Leases
 from gateway.service.operations.registry import Operations
