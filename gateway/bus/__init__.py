@@ -31,7 +31,7 @@ from gateway.bus.requests import (
     TransactionResult,
 )
 from gateway.bus.scheduler import LinkState, LoopScheduler
-from gateway.bus.trace import Direction, LineTrace, TraceRecord
+from gateway.bus.trace import FrameDirection, LineTrace, TraceRecord
 
 __all__ = [
     "BusError",
@@ -40,8 +40,8 @@ __all__ = [
     "ControllerAnswering",
     "CountersSnapshot",
     "DeadlineExpired",
-    "Direction",
     "EventBus",
+    "FrameDirection",
     "FramingChanged",
     "LineTrace",
     "LinkDown",

@@ -29,13 +29,12 @@ from gateway.bus.selection import after_accepted, confirm_command, selection_fro
 from gateway.bus.state import StateCache
 from gateway.bus.timing import Timing, reply_chars
 from gateway.errors import ReplyFormatError
+from gateway.protocol import commands as cmd
+from gateway.protocol.command_replies import decode_for
 from gateway.protocol.framing import Framing, encode_command, framing_switch
 from gateway.protocol.models import Command
 from gateway.protocol.replies import (
     ReplyValue,
-    decode_condition_bit,
-    decode_motor_pair,
-    decode_reply,
 )
 from gateway.protocol.reply_parser import (
     Accepted,
@@ -45,9 +44,9 @@ from gateway.protocol.reply_parser import (
     NotAccepted,
     ReplyEvent,
 )
-from gateway.protocol.spec import Effect, ReplyFormat, Scope
+from gateway.protocol.spec import Effect, Scope
 
-__all__ = ["DOUBT", "FRAMING_KEYS", "LoopCore", "Sent", "decode_for"]
+__all__ = ["DOUBT", "LoopCore", "Sent"]
 
 #: What the scheduler reads to learn whether a controller answers (``LoopCore.probe``).
 _PROBE = confirm_command()
@@ -56,18 +55,6 @@ _PROBE = confirm_command()
 DOUBT = frozenset({ReplyKind.TIMEOUT, ReplyKind.GARBLED, ReplyKind.CHECKSUM})
 #: Replies every subscriber hears at once (``EventBus.defer`` is for the others).
 _AT_ONCE = frozenset({Effect.MOTION, Effect.STOP})
-#: The forms that switch the framing (§10 EE, EL, ER, SUM).
-FRAMING_KEYS = frozenset({"EE1", "EE0", "EL1", "EL0", "ER1", "ER0", "SUM1", "SUM0"})
-
-
-def decode_for(command: Command, data: str) -> ReplyValue:
-    """The typed value of ``command``'s reply data (``ReplyFormatError`` if it does not fit)."""
-    fmt = command.reply_format
-    if command.key == "9{bit}":
-        return decode_condition_bit(data, int(command.params()["bit"]))
-    if fmt is ReplyFormat.MOTOR_PAIR and command.mnemonic in ("QJ", "QSE"):
-        return decode_motor_pair(data, max_setting=1)  # §10 QJ, QSE: 0 or 1 per motor
-    return decode_reply(fmt, data)
 
 
 @dataclass(frozen=True)
@@ -243,7 +230,7 @@ class LoopCore:
         framing = self.framing.get(body)
         series = self.config.series_of(body)
         text = command.wire()
-        switch = framing_switch(framing, text) if command.key in FRAMING_KEYS else None
+        switch = framing_switch(framing, text) if command.form.switches_framing else None
         reply_framing = switch.reply if switch is not None else framing
         frame = encode_command(body, text, series=series, framing=framing)
         self.link.programs.sending(body, command)  # a program may print before G's '>' ends
@@ -319,20 +306,20 @@ class LoopCore:
         """Selection and framing books after one frame."""
         if sent.kind in DOUBT or sent.kind is ReplyKind.NOT_ACCEPTED:
             self.doubt(body)
-            if command.key in FRAMING_KEYS and sent.kind in DOUBT:
+            if command.form.switches_framing and sent.kind in DOUBT:
                 self.framing.suspect(body, f"the reply to {command.wire()} was lost")
             return
         if sent.kind is not ReplyKind.ACCEPTED or command.reply_format.has_data:
             return
-        if command.key in FRAMING_KEYS:
+        if command.form.switches_framing:
             switch = framing_switch(framing, command.wire())
             if not switch.refused:
                 self.set_framing(body, switch.after, detected=False)
-        elif command.key == "DL":
+        elif command.form is cmd.LOAD_SETTINGS:
             # §10 DL loads the framing stored by DW: not known any more.
             self.framing.forget(body)
             self.framing.suspect(body, "DL loaded the framing from EEPROM")
-        elif command.form.selects_motor and command.key != "F{mt}":
+        elif command.form.selects_motor and command.form is not cmd.SELECT_MOTOR:
             changed = after_accepted(command, framing)
             if changed is not False:
                 self.set_selection(body, changed if isinstance(changed, int) else None)

@@ -100,7 +100,7 @@ class TransactionDone(BusEvent):
     """A transaction ended (any outcome); ``counters`` are the loop's totals after it."""
 
     body: str
-    commands: tuple[str, ...]  # the callers' commands as sent (wire text)
+    commands: tuple[Command, ...]  # the callers' commands as sent
     motor: int | None = None  # the motor the caller named for the per-motor commands
     outcome: Outcome
     priority: Priority

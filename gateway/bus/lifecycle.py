@@ -353,7 +353,7 @@ class LoopLifecycle:
                 loop=self.name,
                 time=result.ended,
                 body=request.body,
-                commands=tuple(c.wire() for c in request.commands),
+                commands=tuple(request.commands),
                 motor=request.motor,
                 outcome=result.outcome,
                 priority=request.priority,

@@ -23,7 +23,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from gateway.bus.receiver import ALWAYS_MEANT, LinkLost, Pending, Receiver
-from gateway.bus.trace import Direction
+from gateway.bus.trace import FrameDirection
 from gateway.protocol.framing import Framing, Series
 from gateway.protocol.reply_parser import ReplyEvent, Unsolicited
 from gateway.transport.base import TransportClosed
@@ -93,10 +93,10 @@ class Link(Receiver):
                 self._counters.timeouts += 1
                 if not pending.heard:
                     self.silent_timeouts += 1
-                self._trace.add(self._clock(), Direction.NOTE, body, b"", "time-out")
+                self._trace.add(self._clock(), FrameDirection.NOTE, body, b"", "time-out")
             if late:
                 self._counters.late_replies += 1
-                self._trace.add(self._clock(), Direction.NOTE, body, b"", "late reply")
+                self._trace.add(self._clock(), FrameDirection.NOTE, body, b"", "late reply")
             return Exchange(event, late, pending.heard, started, self._clock())
         finally:
             self._pending = None
@@ -140,7 +140,7 @@ class Link(Receiver):
         self._counters.stale_bytes += len(stale)
         self._counters.bytes_in += len(stale)
         self._counters.busy_time += self.timing.wire(len(stale))
-        self._trace.add(self._clock(), Direction.DISCARD, body, stale, "stale")
+        self._trace.add(self._clock(), FrameDirection.DISCARD, body, stale, "stale")
         self.parser.cancel()
         for event in [*self.parser.feed(stale), *self.parser.line_quiet()]:
             if isinstance(event, Unsolicited) and (
@@ -158,7 +158,7 @@ class Link(Receiver):
         self._last_frame = data
         self._counters.bytes_out += len(data)
         self._counters.busy_time += self.timing.wire(len(data))
-        self._trace.add(now, Direction.TX, body, data)
+        self._trace.add(now, FrameDirection.TX, body, data)
 
     async def probe(
         self, body: str, frame: bytes, *, reply_len: int, complete: Callable[[bytes], bool]
@@ -193,7 +193,7 @@ class Link(Receiver):
             if not complete(bytes(buffer)):
                 self._counters.timeouts += 1
                 self._trace.add(
-                    self._clock(), Direction.NOTE, body, bytes(buffer), "probe time-out"
+                    self._clock(), FrameDirection.NOTE, body, bytes(buffer), "probe time-out"
                 )
             return bytes(buffer)
         finally:

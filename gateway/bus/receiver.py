@@ -19,7 +19,7 @@ from collections.abc import Callable
 from gateway.bus.counters import Counters
 from gateway.bus.programs_seen import ProgramsSeen
 from gateway.bus.timing import Timing
-from gateway.bus.trace import Direction, LineTrace
+from gateway.bus.trace import FrameDirection, LineTrace
 from gateway.protocol.reply_parser import (
     ChecksumMismatch,
     Garbled,
@@ -205,7 +205,7 @@ class Receiver:
         if pending is not None:
             pending.heard = True
         body = pending.body if pending is not None else None
-        self._trace.add(now, Direction.RX, body, data)
+        self._trace.add(now, FrameDirection.RX, body, data)
         if self._probe is not None:
             self._probe += data  # the framing is in doubt: read raw, not with the parser
             self._probe_changed.set()
@@ -247,7 +247,7 @@ class Receiver:
             return
         if pending is not None and pending.late_phase and not self._printed(event):
             self._counters.late_replies += 1
-            self._trace.add(self._clock(), Direction.NOTE, pending.body, event.raw, "late")
+            self._trace.add(self._clock(), FrameDirection.NOTE, pending.body, event.raw, "late")
             return
         if isinstance(event, Unsolicited):
             self._on_unsolicited(event)

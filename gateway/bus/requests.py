@@ -21,7 +21,6 @@ from gateway.protocol.models import Command
 from gateway.protocol.replies import ReplyValue
 
 __all__ = [
-    "STOP_KEYS",
     "BusError",
     "CommandResult",
     "DeadlineExpired",
@@ -32,12 +31,6 @@ __all__ = [
     "TransactionError",
     "TransactionResult",
 ]
-
-#: The forms that stop motion or a program and outrank everything queued (DESIGN invariant 8):
-#: S (immediate stop), SS (slow down to Low speed, then stop), GES (end the program and stop)
-#: - §10 S, SS, GES.
-STOP_KEYS = frozenset({"S", "SS", "GES"})
-
 
 class Priority(IntEnum):
     """Queue order: lower goes first; FIFO within one priority."""

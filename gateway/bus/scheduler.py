@@ -14,14 +14,18 @@ import contextlib
 from collections.abc import Sequence
 
 from gateway.bus.lifecycle import LinkState, LoopLifecycle
-from gateway.bus.requests import STOP_KEYS, Priority, TransactionError, TransactionResult
-from gateway.bus.trace import Direction
+from gateway.bus.requests import Priority, TransactionError, TransactionResult
+from gateway.bus.trace import FrameDirection
+from gateway.protocol import commands as cmd
 from gateway.protocol.framing import BODY_NUMBERS, Framing
 from gateway.protocol.models import Command
 from gateway.protocol.program import Program
-from gateway.protocol.registry import parse
+from gateway.protocol.registry import REGISTRY
 
 __all__ = ["LinkState", "LoopScheduler"]
+
+#: The stops' texts, for the errors that refuse something else at stop priority.
+_STOPS = ", ".join(sorted(entry.key for entry in REGISTRY.entries if entry.form.is_stop))
 
 
 class LoopScheduler(LoopLifecycle):
@@ -79,11 +83,12 @@ class LoopScheduler(LoopLifecycle):
         cmds = (commands,) if isinstance(commands, Command) else tuple(commands)
         return await self._submit(body, cmds, priority, motor, deadline, None)
 
-    async def stop(self, body: str, command: str = "S") -> TransactionResult:
-        """Send a stop (``S``, ``SS`` or ``GES``) at stop priority."""
-        if command not in STOP_KEYS:
-            raise TransactionError(f"{command!r} is not a stop: one of {sorted(STOP_KEYS)}")
-        return await self.submit(body, parse(command), priority=Priority.STOP)
+    async def stop(self, body: str, command: Command | None = None) -> TransactionResult:
+        """Send a stop (``S`` by default, ``SS`` or ``GES``) at stop priority."""
+        command = cmd.stop() if command is None else command
+        if not command.form.is_stop:
+            raise TransactionError(f"{command.wire()!r} is not a stop: one of {_STOPS}")
+        return await self.submit(body, command, priority=Priority.STOP)
 
     async def upload_program(
         self,
@@ -94,7 +99,7 @@ class LoopScheduler(LoopLifecycle):
         deadline: float | None = None,
     ) -> TransactionResult:
         """Upload a user program: ``I``, then its text ended by CR, as one transaction."""
-        return await self._submit(body, (parse("I"),), priority, None, deadline, program)
+        return await self._submit(body, (cmd.upload_program(),), priority, None, deadline, program)
 
     def forget(self, body: str | None = None) -> None:
         """Drop what the scheduler knows of a controller's selection and framing (power cycle)."""
@@ -140,19 +145,19 @@ class LoopScheduler(LoopLifecycle):
             raise TransactionError(f"motor must be 1 or 2, not {motor!r}")
         if self.state in (LinkState.DOWN, LinkState.CLOSED):
             raise self._down_error()
-        if all(c.key in STOP_KEYS for c in commands):
+        if all(c.form.is_stop for c in commands):
             priority = Priority.STOP  # a stop outranks everything queued (DESIGN invariant 8)
         elif priority is Priority.STOP:
             # Stop priority jumps the queue, never expires and survives its caller: it is
             # for stops only, or any caller could starve the line with it.
             raise TransactionError(
-                f"priority STOP is for stops only ({', '.join(sorted(STOP_KEYS))}); "
+                f"priority STOP is for stops only ({_STOPS}); "
                 f"this transaction has {', '.join(c.wire() for c in commands)}"
             )
         if deadline is None:
             deadline = self.config.deadline_for(priority)
         if priority is Priority.STOP:  # when it was asked for, beside when it went out
-            self.trace.add(self.clock(), Direction.NOTE, body, b"", "stop queued")
+            self.trace.add(self.clock(), FrameDirection.NOTE, body, b"", "stop queued")
         waiter = self._queue.put(
             body, commands, priority=priority, motor=motor, program=program, deadline=deadline
         )

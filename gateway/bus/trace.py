@@ -12,10 +12,10 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 from enum import StrEnum
 
-__all__ = ["Direction", "LineTrace", "TraceRecord"]
+__all__ = ["FrameDirection", "LineTrace", "TraceRecord"]
 
 
-class Direction(StrEnum):
+class FrameDirection(StrEnum):
     """Which way bytes went, or what happened to them."""
 
     TX = "tx"  # written to the line
@@ -29,7 +29,7 @@ class TraceRecord:
     """One traced chunk: host clock time, direction, controller (None: not known), bytes."""
 
     time: float
-    direction: Direction
+    direction: FrameDirection
     body: str | None
     data: bytes
     note: str = ""
@@ -80,7 +80,7 @@ class LineTrace:
         return self.all or (body is not None and body in self.bodies)
 
     def add(
-        self, time: float, direction: Direction, body: str | None, data: bytes, note: str = ""
+        self, time: float, direction: FrameDirection, body: str | None, data: bytes, note: str = ""
     ) -> None:
         """Record a chunk if tracing is on for ``body``."""
         if self.wants(body):

@@ -23,7 +23,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-from gateway.bus.core import DOUBT, FRAMING_KEYS, LoopCore, Sent
+from gateway.bus.core import DOUBT, LoopCore, Sent
 from gateway.bus.detect import ensure_framing
 from gateway.bus.eeprom_hold import hold_for_write
 from gateway.bus.requests import CommandResult, Outcome, ReplyKind
@@ -39,21 +39,19 @@ from gateway.bus.verify import (
     value_check,
     value_outcome,
 )
+from gateway.protocol import commands as cmd
 from gateway.protocol.framing import Framing, framing_switch
 from gateway.protocol.models import Command
 from gateway.protocol.program import Program
-from gateway.protocol.registry import parse
 from gateway.protocol.replies import ReplyValue
 from gateway.protocol.reply_values import StatusFlags
 from gateway.protocol.spec import Effect, ReplyFormat
 
-__all__ = ["FLAG_CLEARING_FORMS", "TransactionRunner"]
+__all__ = ["TransactionRunner"]
 
-#: Forms that clear latched device errors as a side effect, without reporting them (§10 K).
-FLAG_CLEARING_FORMS = frozenset({"K{dt},{du}{dl}", "K{dt},{bt}", "KC"})
 #: The error bits ``""`` and ``9`` (form I) clear live in two stores, one per read (§10 9 ③):
 #: after a lost reply to one, the other still reports them.
-_OTHER_STORE = {'""': parse("9"), "9": parse("")}
+_OTHER_STORE = {cmd.STATUS: cmd.condition(), cmd.CONDITION: cmd.status()}
 
 
 class TransactionRunner:
@@ -89,7 +87,7 @@ class TransactionRunner:
                     )
                 )
                 continue
-            if self.program is not None and command.key == "I":
+            if self.program is not None and command.form is cmd.OPEN_PROGRAM:
                 result = await upload(self.core, self.body, command, self.program, self._query)
             else:
                 result = await self._step(command)
@@ -208,7 +206,7 @@ class TransactionRunner:
         if not await self._selected(command):
             note = f"F{motor} was not taken (a motor moving? §10 F): not sent"
             return st.result(ReplyKind.SKIPPED, Outcome.NOT_DONE, note)
-        if command.key in FLAG_CLEARING_FORMS and not st.seen.get("status_before"):
+        if command.form in cmd.CLEARS_ERRORS and not st.seen.get("status_before"):
             # §10 K: forms I, II and IV clear the limit and EMS bits of "" without a read.
             # Read them first, so the state cache latches what the device is about to forget
             # (DESIGN invariant 4).
@@ -251,7 +249,7 @@ class TransactionRunner:
         ):
             return st.result(sent.kind, Outcome.NOT_DONE, sent.note)
         outcome, note = Outcome.DONE, sent.note
-        selected = command.motor if command.key == "F{mt}" else None
+        selected = command.motor if command.form is cmd.SELECT_MOTOR else None
         if selected is not None and not await self._confirm(selected):
             outcome, note = Outcome.NOT_DONE, "F answered '>' but the selection stayed"
         if command.reply_format is ReplyFormat.ACK_THEN_DONE:
@@ -275,7 +273,7 @@ class TransactionRunner:
             seen["value_after"] = after_value
             outcome = value_outcome(st.before_value, after_value, st.check)
             how = f"read back {st.check.query.wire()}"
-        elif command.key in FRAMING_KEYS:
+        elif command.form.switches_framing:
             expected = framing_switch(st.framing, command.wire()).after
             await ensure_framing(core, self.body)
             now = core.framing.get(self.body)
@@ -288,11 +286,11 @@ class TransactionRunner:
         elif command.reply_format is ReplyFormat.ACK_THEN_DONE:
             outcome = await hold_for_write(core, self.body, command, st.mark, seen)
             how = "waited for $B#*"
-        elif command.key in _OTHER_STORE:
+        elif command.form in _OTHER_STORE:
             # The lost reply cleared error bits nobody saw (an EMS, a limit). The controller
             # keeps them in a second store too (§10 "" and §10 9 ③): read that one now, so
             # the state cache latches them at once rather than never.
-            other = _OTHER_STORE[command.key]
+            other = _OTHER_STORE[command.form]
             seen["errors_read"] = await self._query(other)
             shown = other.wire() or '""'
             outcome, how = Outcome.UNKNOWN, f"read {shown} for the errors it cleared"

@@ -21,6 +21,7 @@ from typing import Protocol
 from pydantic import BaseModel, Field
 
 from gateway.bus.requests import BusError, LoopDown, Outcome
+from gateway.protocol import commands as cmd
 from gateway.service.operations.terms import StopMode
 from gateway.service.operations.types import Operation, frames_of
 from gateway.service.runtime.runtime import Runtime
@@ -29,7 +30,7 @@ from gateway.service.topology import ControllerRef
 __all__ = ["ControllerStop", "LoopStop", "StopAll"]
 
 #: The stop command of each mode (§10 S: at once; §10 SS: down to Low speed, then stop).
-STOP_COMMANDS = {StopMode.IMMEDIATE: "S", StopMode.DECELERATE: "SS"}
+STOP_COMMANDS = {StopMode.IMMEDIATE: cmd.stop(), StopMode.DECELERATE: cmd.slow_stop()}
 
 
 class StopNotes(Protocol):
@@ -85,7 +86,7 @@ class StopAll:
         stop = ControllerStop(
             controller=ref.id,
             axes=[a.id for a in ref.axes],
-            command=command,
+            command=command.wire(),
             outcome=Outcome.NOT_DONE,
             frames=[],
             operation=op.id if op is not None else None,

@@ -138,7 +138,7 @@ class Clock:
 
 def done(loop: str, duration: float, priority: Priority, outcome: Outcome) -> TransactionDone:
     return TransactionDone(
-        loop=loop, body="1", commands=("Q",), outcome=outcome, priority=priority,
+        loop=loop, body="1", commands=(parse("Q"),), outcome=outcome, priority=priority,
         duration=duration, exchanges=1, counters=CountersSnapshot(),
     )  # fmt: skip
 

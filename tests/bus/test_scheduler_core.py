@@ -20,6 +20,7 @@ from gateway.bus.requests import (
     ReplyKind,
     TransactionError,
 )
+from gateway.protocol import commands as cmd
 from gateway.protocol.registry import parse
 from gateway.protocol.reply_values import StatusFlags
 from gateway.sim.clock import RecordKind
@@ -89,7 +90,7 @@ async def test_a_stop_goes_out_right_after_the_transaction_in_flight(make_bus: M
 
     def stop_now(event: object) -> None:
         if isinstance(event, ReplyObserved) and event.command.key == "A{pn}D" and not stop:
-            stop.append(asyncio.ensure_future(bus.scheduler.stop("1", "SS")))
+            stop.append(asyncio.ensure_future(bus.scheduler.stop("1", cmd.slow_stop())))
 
     first = asyncio.ensure_future(bus.scheduler.submit("1", block, priority=Priority.OPERATOR))
     bus.scheduler.events.subscribe(stop_now)
@@ -277,7 +278,7 @@ async def test_a_transaction_of_stops_is_a_stop_whatever_priority_was_given(
     await asyncio.gather(*queued)
     assert bus.texts() == ["A000D", "S", "OL"]
     with pytest.raises(TransactionError):
-        await bus.scheduler.stop("1", "OH")
+        await bus.scheduler.stop("1", parse("OH"))
 
 
 async def test_an_error_k_would_clear_is_read_and_published_first(make_bus: MakeBus) -> None:

@@ -8,6 +8,7 @@ import asyncio
 
 from gateway.bus.events import ReplyObserved, UnsolicitedMessage
 from gateway.bus.requests import Outcome, ReplyKind
+from gateway.protocol import commands as cmd
 from gateway.protocol.registry import parse
 from gateway.protocol.reply_parser import UnsolicitedKind
 from gateway.sim.clock import RecordKind
@@ -48,7 +49,7 @@ async def test_a_stop_still_goes_out_during_an_erase(make_bus: MakeBus) -> None:
 
     def queue_stop_and_poll() -> None:
         queued.append(asyncio.ensure_future(bus.scheduler.submit("2", parse("A000D"))))
-        queued.append(asyncio.ensure_future(bus.scheduler.stop("2", "SS")))
+        queued.append(asyncio.ensure_future(bus.scheduler.stop("2", cmd.slow_stop())))
 
     bus.once_after("EE///", queue_stop_and_poll)
     erase = await bus.scheduler.submit("1", parse("EE///"))

@@ -18,6 +18,7 @@ from gateway.bus.config import LoopConfig
 from gateway.bus.events import ReplyObserved
 from gateway.bus.requests import LoopDown, Outcome, Priority, TransactionError
 from gateway.bus.scheduler import LoopScheduler
+from gateway.protocol import commands as cmd
 from gateway.protocol.registry import parse
 from gateway.sim.faults import FaultKind
 from gateway.transport.base import Transport, TransportClosed
@@ -37,7 +38,7 @@ async def test_a_stop_whose_caller_went_away_still_goes_out(make_bus: MakeBus) -
         if not isinstance(event, ReplyObserved) or event.command.key != "A{pn}D":
             return
         if not stop:
-            stop.append(asyncio.ensure_future(bus.scheduler.stop("1", "SS")))
+            stop.append(asyncio.ensure_future(bus.scheduler.stop("1", cmd.slow_stop())))
         elif not stop[0].done():
             stop[0].cancel()
 

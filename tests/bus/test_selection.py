@@ -15,6 +15,7 @@ from gateway.bus.events import SelectionChanged, TransactionDone
 from gateway.bus.requests import DeadlineExpired, Outcome, ReplyKind
 from gateway.bus.selection import after_accepted, needs_selection, selection_from_reply
 from gateway.bus.state import StateCache
+from gateway.protocol import commands as cmd
 from gateway.protocol.framing import Framing
 from gateway.protocol.registry import parse
 from gateway.protocol.reply_values import ConditionFlags
@@ -100,7 +101,7 @@ async def test_f_refused_while_a_motor_moves_keeps_the_setting_off_the_wrong_mot
     assert bus.texts()[-2:] == ["F2", "97"]
     assert "OH4000" not in bus.texts()
     assert bus.controller().settings.motors[1].oh == 5000
-    await bus.scheduler.stop("1", "SS")
+    await bus.scheduler.stop("1", cmd.slow_stop())
     await bus.wait_idle()
 
 

@@ -243,7 +243,7 @@ def test_scheduler_events_feed_the_cache() -> None:
             loop=LOOP,
             time=2.5,
             body="1",
-            commands=("31",),
+            commands=(parse("31"),),
             outcome=Outcome.NOT_DONE,
             priority=Priority.OPERATOR,
             duration=0.01,
@@ -295,7 +295,7 @@ def test_counters_are_copied_only_when_published() -> None:
     cache.changes.subscribe(seen.append)
     for i in range(25):  # 25 transactions in 2.4 s: the counters published 3 times
         done = TransactionDone(
-            loop=LOOP, time=i * 0.1, body="1", commands=("",), outcome=Outcome.DONE,
+            loop=LOOP, time=i * 0.1, body="1", commands=(parse(""),), outcome=Outcome.DONE,
             priority=Priority.POLL, duration=0.01, exchanges=1,
             counters=CountersSnapshot(transactions=i),
         )  # fmt: skip

@@ -12,7 +12,7 @@ import asyncio
 
 from gateway.bus.events import BusEvent, ReplyObserved
 from gateway.bus.requests import Outcome, Priority, ReplyKind, TransactionResult
-from gateway.bus.trace import Direction
+from gateway.bus.trace import FrameDirection
 from gateway.protocol.registry import parse
 from tests.bus.conftest import Bus, MakeBus
 
@@ -22,7 +22,7 @@ READS = [f"A{n:03d}D" for n in range(8)]
 
 def _written(bus: Bus) -> int:
     """Frames the scheduler has written so far (its trace is on for the whole loop)."""
-    return sum(1 for r in bus.scheduler.trace.records() if r.direction is Direction.TX)
+    return sum(1 for r in bus.scheduler.trace.records() if r.direction is FrameDirection.TX)
 
 
 def _stop_after(
@@ -36,7 +36,7 @@ def _stop_after(
     def watch(event: BusEvent) -> None:
         if isinstance(event, ReplyObserved) and event.command.wire() == wire and not stops:
             written.append(_written(bus))
-            stops.append(asyncio.ensure_future(bus.scheduler.stop(body, command)))
+            stops.append(asyncio.ensure_future(bus.scheduler.stop(body, parse(command))))
 
     bus.scheduler.events.subscribe(watch)
     return written, stops

@@ -247,7 +247,7 @@ class AxisService:
         result = await self.gateway.scheduler(ref.loop).stop(ref.body, command)
         return StopResult(
             axis=ref.id,
-            command=command,
+            command=command.wire(),
             outcome=result.outcome,
             frames=frames_of(result, self._prefix(ref)),
             operation=op.id if op is not None else None,

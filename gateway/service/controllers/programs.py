@@ -118,7 +118,7 @@ class ProgramService:
         """
         if mode == "immediate":
             scheduler = self.runner.gateway.scheduler(ref.loop)
-            result = await scheduler.stop(ref.body, "GES")
+            result = await scheduler.stop(ref.body, cmd.end_program_now())
             return response_of(ref, require_done(ref, result))
         return await self._do(ref, cmd.end_program(), holder)
 

@@ -129,7 +129,7 @@ class MotionWatch:
             return
         if isinstance(event, TransactionDone):
             # The move's own transaction has ended: reads from now on see its motion.
-            if not op.armed and event.commands == op.wire and event.outcome is Outcome.DONE:
+            if not op.armed and event.commands == op.commands and event.outcome is Outcome.DONE:
                 op.armed = True
         elif isinstance(event, ReplyObserved) and op.armed:
             if isinstance(event.value, StatusFlags):

@@ -137,7 +137,7 @@ class Operations:
             motor=motor or axis.motor,
             target=target,
             holder=holder,
-            wire=tuple(c.wire() for c in commands),
+            commands=tuple(commands),
             prefix=prefix,
             step=step,
         )

@@ -15,6 +15,7 @@ from typing import Any
 from pydantic import BaseModel, ConfigDict, Field
 
 from gateway.bus.requests import ReplyKind, TransactionResult
+from gateway.protocol.models import Command
 from gateway.service.operations.terms import Direction, HomeMethod, JogSpeed, Unit
 from gateway.service.topology import AxisRef
 
@@ -137,7 +138,7 @@ class Operation:
     motor: int
     target: int | None
     holder: str | None
-    wire: tuple[str, ...]  # the transaction's commands, to recognise its TransactionDone
+    commands: tuple[Command, ...]  # the transaction's commands, to recognise its TransactionDone
     prefix: str = "$"
     state: OperationState = OperationState.QUEUED
     position: int | None = None
