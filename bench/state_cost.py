@@ -33,7 +33,7 @@ def polls(cache: StateCache, count: int, start: float) -> float:
         cache.handle(ReplyObserved(loop="L", time=now, body="1", command=status, value=stopped))
         cache.handle(ReplyObserved(loop="L", time=now, body="1", command=position, value=1234))
         done = TransactionDone(
-            loop="L", time=now, body="1", commands=("",), outcome=Outcome.DONE,
+            loop="L", time=now, body="1", commands=(parse(""),), outcome=Outcome.DONE,
             priority=Priority.POLL, duration=0.01, exchanges=1, counters=counters,
         )  # fmt: skip
         cache.handle(done)

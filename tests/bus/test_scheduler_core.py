@@ -256,7 +256,7 @@ async def test_every_reply_and_transaction_is_published(make_bus: MakeBus) -> No
     assert [e.motor for e in observed[2:]] == [2, 2]
     done = [e for e in bus.events if isinstance(e, TransactionDone)]
     assert len(done) == 1
-    assert done[0].commands == ("OH4100", "OH")
+    assert tuple(c.wire() for c in done[0].commands) == ("OH4100", "OH")
     assert done[0].exchanges == 4
     assert done[0].counters.transactions == 1
 

@@ -120,7 +120,7 @@ async def test_motor_2_settings_never_land_on_motor_1_under_concurrent_callers(
         # the other motor holds a value of its own range (or the §16 default).
         if isinstance(event, TransactionDone) and event.outcome is Outcome.DONE:
             assert event.motor is not None
-            oh, ol = (int(c[2:]) for c in event.commands)
+            oh, ol = (int(c.wire()[2:]) for c in event.commands)
             motors = bus.controller().settings.motors
             other = motors[3 - event.motor]
             if (motors[event.motor].oh, motors[event.motor].ol) != (oh, ol):
