@@ -29,7 +29,6 @@ from collections.abc import Mapping
 from typing import Any
 
 from gateway.bus.requests import TransactionResult
-from gateway.bus.scheduler import LinkState
 from gateway.bus.state_types import ErrorKind
 from gateway.errors import ConflictError, DeviceError, InvalidInputError
 from gateway.protocol import commands as cmd
@@ -58,6 +57,7 @@ from gateway.service.operations.terms import (
     Unit,
 )
 from gateway.service.operations.types import frames_of
+from gateway.service.presend import PreSendChecks
 from gateway.service.runtime.runtime import Runtime
 from gateway.service.stops import STOP_COMMANDS
 from gateway.service.topology import AxisRef
@@ -92,6 +92,7 @@ class AxisService:
         self.gateway = gateway
         self.operations = operations
         self.leases = leases
+        self.checks = PreSendChecks(gateway, leases)
         self.formats = PositionFormats(gateway)
         self._speeds: dict[str, SpeedSettings] = {}  # last read, per axis id (OC while moving)
         self._limit_jogs = LimitJogs(self._run, self._submit)
@@ -206,7 +207,7 @@ class AxisService:
                 )
             # The same jog: only its speed changes (§10 H, L work while turning); a setting
             # from the network, refused in local control like any other.
-            self._remote(ref, "change the jog speed of")
+            self.checks.remote(ref, "change the jog speed of")
             jog_speed = cmd.jog_high() if speed is JogSpeed.HIGH else cmd.jog_low()
             await self._submit(ref, [jog_speed], motor=None)
             active.request["speed"] = speed.value
@@ -314,33 +315,8 @@ class AxisService:
         return self.gateway.topology.controller(ref.controller_id).series.value
 
     def _may_act(self, ref: AxisRef, holder: str, what: str = "move") -> None:
-        """Remote control, leases, the controller online and not moving; nothing sent yet."""
-        self._remote(ref, what)
-        self.leases.check(holder, (ref.id, ref.controller_id))
-        scheduler = self.gateway.scheduler(ref.loop)
-        if scheduler.state is not LinkState.UP:
-            raise scheduler.down_error()  # the line first: a dead loop is no busy controller
-        ctl = self.gateway.state.controller(ref.loop, ref.body)
-        if ctl.online is False:
-            raise DeviceError(
-                f"controller {ref.controller_id} does not answer (offline); nothing was sent",
-                outcome="not_done",
-                timeout=True,
-            )
-        active = self.operations.active(ref.loop, ref.body)
-        if active is not None or ctl.moving:
-            moving = active.axis.id if active is not None else f"motor {ctl.selected_motor}"
-            raise ConflictError(
-                f"cannot {what} {ref.id}: controller {ref.controller_id} is moving ({moving}); "
-                "its two motors never move together (§2), a motion command now would be "
-                "ignored with a command error (§9-1)",
-                field="axis",
-            )
-
-    def _remote(self, ref: AxisRef, what: str) -> None:
-        """409 when the axis's controller is in local control (``gateway.service.control``)."""
-        controller = self.gateway.topology.controller(ref.controller_id)
-        self.gateway.control.check(controller, f"{what} {ref.id}")
+        """Every check before an action on ``ref`` (``PreSendChecks.axis_action``)."""
+        self.checks.axis_action(ref, holder, self.operations.active(ref.loop, ref.body), what)
 
     async def _current(self, ref: AxisRef) -> int:
         """The axis's position: cached, or read now when not known or stale."""

@@ -75,9 +75,9 @@ class ProgramService:
         """Validate ``text`` (chapters 11-12) and upload it (``I`` + text + CR)."""
         program = self.check(text)
         command = cmd.upload_program()
-        self.runner.check_control(ref, [command])
-        self.runner.check_lease(ref, [command], holder)
-        self.runner.check_state(ref, [command])
+        self.runner.checks.control(ref, [command])
+        self.runner.checks.lease(ref, [command], holder)
+        self.runner.checks.state(ref, [command])
         scheduler = self.runner.gateway.scheduler(ref.loop)
         result = await scheduler.upload_program(ref.body, program)
         response = response_of(ref, require_done(ref, result))

@@ -29,11 +29,12 @@ from gateway.errors import InvalidInputError, NotFoundError
 from gateway.protocol import commands
 from gateway.protocol.models import Command
 from gateway.protocol.registry import parse
-from gateway.service.commands import CommandRunner, LeaseCheck
+from gateway.service.commands import CommandRunner
 from gateway.service.control import ControlView
 from gateway.service.controllers.programs import ProgramService
 from gateway.service.controllers.replies import CommandResponse, response_of
 from gateway.service.controllers.resources import ControllerResources
+from gateway.service.presend import LeaseCheck
 from gateway.service.runtime.runtime import Runtime
 from gateway.service.topology import ControllerRef
 from gateway.service.views import ControllerView, LoopView, controller_view, loop_view, wall_time
@@ -164,7 +165,7 @@ class ControllerService:
         except InvalidInputError as exc:
             field = "text" if exc.field in (None, "text") else f"text.{exc.field}"
             raise InvalidInputError(str(exc), field=field, rule=exc.rule) from None
-        self.runner.refuse_unsendable(command, field="text")
+        self.runner.checks.refuse_unsendable(command, field="text")
         return command
 
     async def raw(
