@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from typing import Annotated
 
-from fastapi import APIRouter, Body, Depends, Path, Query, Request
+from fastapi import APIRouter, Body, Path, Query, Request
 
 from gateway.api.audit import audit_note
 from gateway.api.bodies import (
@@ -27,17 +27,16 @@ from gateway.api.bodies import (
     StepRequest,
     StopRequest,
 )
+from gateway.api.deps import Operator, Viewer
 from gateway.api.motion_problems import MOTION_PROBLEM_RESPONSES
 from gateway.api.problems import PROBLEM_RESPONSES
 from gateway.api.route_calls import Axes, Homing, Motion, axes_of, controllers_of
 from gateway.api.routes_leases import LeaseView, lease_routes
-from gateway.api.security import Principal, require
 from gateway.service.axes.service import (
     StopResult,
 )
 from gateway.service.axes.speeds import SpeedView
 from gateway.service.operations.types import OperationView
-from gateway.service.roles import Role
 from gateway.service.views import AxisView
 
 __all__ = ["router"]
@@ -45,8 +44,6 @@ __all__ = ["router"]
 router = APIRouter(tags=["axes"], responses=PROBLEM_RESPONSES)
 
 Id = Annotated[str, Path(description="axis id (loop.body.motor) or name", examples=["sim.1.1"])]
-Viewer = Annotated[Principal, Depends(require(Role.VIEWER))]
-Operator = Annotated[Principal, Depends(require(Role.OPERATOR))]
 
 
 # ---------------------------------------------------------------------- views

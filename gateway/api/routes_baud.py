@@ -7,7 +7,7 @@ from fastapi import APIRouter, Request
 
 from gateway.api.audit import audit_note
 from gateway.api.bodies import BaudRequest
-from gateway.api.ctl_deps import Admin
+from gateway.api.deps import Admin
 from gateway.api.problems import PROBLEM_RESPONSES
 from gateway.api.routes_loops import Loop
 from gateway.service.baud import BaudChange, BaudChanger

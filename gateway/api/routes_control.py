@@ -15,7 +15,7 @@ from pydantic import BaseModel, Field
 
 from gateway.api.audit import audit_note
 from gateway.api.bodies import ControlRequest
-from gateway.api.ctl_deps import Admin, Id, Service
+from gateway.api.deps import Admin, Id, Service
 from gateway.api.problems import PROBLEM_RESPONSES
 from gateway.api.routes_loops import Loop
 from gateway.service.control import ControlSourceView, ControlView

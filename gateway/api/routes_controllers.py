@@ -24,7 +24,7 @@ from gateway.api.bodies import (
     SensorLogicWrite,
     StopRequest,
 )
-from gateway.api.ctl_deps import (
+from gateway.api.deps import (
     Id,
     Operator,
     Service,

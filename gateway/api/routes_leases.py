@@ -16,7 +16,7 @@ from pydantic import BaseModel, Field
 
 from gateway.api.audit import audit_note
 from gateway.api.bodies import LeaseRequest
-from gateway.api.security import Principal, require
+from gateway.api.deps import Operator, Viewer
 from gateway.service.leases import Lease, Leases
 from gateway.service.roles import Role
 
@@ -56,8 +56,6 @@ Id = Annotated[
     str, Path(description="axis id (loop.body.motor), controller id (loop.body) or name")
 ]
 Leased = Annotated[Leases, Depends(_leases)]
-Viewer = Annotated[Principal, Depends(require(Role.VIEWER))]
-Operator = Annotated[Principal, Depends(require(Role.OPERATOR))]
 
 
 def lease_routes(

@@ -13,7 +13,7 @@ from fastapi import APIRouter, Body, Path, Query, Request
 
 from gateway.api.audit import audit_note
 from gateway.api.bodies import RawRequest, StopRequest, TraceSettings
-from gateway.api.ctl_deps import Admin, Operator, Service, Stops, Viewer, note_sent
+from gateway.api.deps import Admin, Operator, Service, Stops, Viewer, note_sent
 from gateway.api.problems import PROBLEM_RESPONSES
 from gateway.errors import NotFoundError
 from gateway.service.controllers.replies import CommandResponse

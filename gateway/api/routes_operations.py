@@ -11,18 +11,15 @@ from typing import Annotated
 
 from fastapi import APIRouter, Depends, Path, Query, Request
 
+from gateway.api.deps import Viewer
 from gateway.api.problems import PROBLEM_RESPONSES
-from gateway.api.security import Principal, require
 from gateway.errors import NotFoundError
 from gateway.service.operations.registry import Operations
 from gateway.service.operations.types import OperationState, OperationView
-from gateway.service.roles import Role
 
 __all__ = ["router"]
 
 router = APIRouter(tags=["operations"], responses=PROBLEM_RESPONSES)
-
-Viewer = Annotated[Principal, Depends(require(Role.VIEWER))]
 
 
 async def _operations(request: Request) -> Operations:

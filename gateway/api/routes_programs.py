@@ -20,7 +20,7 @@ from gateway.api.bodies import (
     ProgramStop,
     ProgramWrite,
 )
-from gateway.api.ctl_deps import Id, Operator, Service
+from gateway.api.deps import Id, Operator, Service
 from gateway.api.problems import PROBLEM_RESPONSES
 from gateway.api.route_calls import AdminWrite, OperatorWrite
 from gateway.service.controllers.replies import CommandResponse

@@ -1,4 +1,5 @@
-"""What the controller, program and loop routes share: the service, path types, roles, audit.
+"""The routes' dependencies in one place: the roles a route needs, the services the app holds,
+the controller path type, and the audit note of what was sent.
 
 ``controllers(request)`` is the ``ControllerService`` the app holds (``app.state.controllers``).
 """
