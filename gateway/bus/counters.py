@@ -1,4 +1,4 @@
-"""The counters of one loop (issue 4, "per loop ... counters"), for the state cache and the
+"""The counters of one loop, for the state cache, the metrics and the
 line-efficiency benchmark.
 
 ``busy_time`` is the wire time of every frame sent and every byte received (10 bits a

@@ -1,6 +1,6 @@
 """The queue of one loop: priorities, FIFO within a priority, deadlines, coalescing.
 
-* Lower ``Priority`` first; within one priority, first come first served (issue 4).
+* Lower ``Priority`` first; within one priority, first come first served.
 * A caller that goes away (its awaiting task cancelled) leaves the queue; a request nobody
   waits for any more is never sent. Except a stop: it goes out even when its caller went
   away (an HTTP client that disconnects must not leave the machine moving, DESIGN invariant 8).

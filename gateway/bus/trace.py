@@ -1,6 +1,6 @@
 """The line trace of one loop: what went out and came in, when, for diagnosing a site.
 
-Switched at run time for the whole loop or per controller (issue 4, "A line trace"). Bytes
+Switched at run time for the whole loop or per controller. Bytes
 received are attributed to the controller of the exchange in progress, or to the controller an
 unsolicited message names. The record is bounded: the oldest entries go first.
 """
