@@ -9,7 +9,9 @@ from the simulator's line log; the console must show what the program printed, i
 
 from __future__ import annotations
 
+import json
 import re
+import time
 import urllib.request
 from collections.abc import Callable, Iterator
 from typing import Any
@@ -17,7 +19,7 @@ from typing import Any
 import pytest
 from playwright.sync_api import Page, WebSocketRoute, expect
 
-from tests.browser.conftest import Gateway, Session, page_event_when
+from tests.browser.conftest import WAIT, Gateway, Session, page_event_when
 
 #: A stop on the line: ``S`` (at once) or ``SS`` (decelerating), §10 S, SS.
 STOPS = ("S", "SS")
@@ -36,6 +38,20 @@ def y_stopped_after(gateway: Gateway) -> Iterator[None]:
     )
     with urllib.request.urlopen(stop) as answer:
         assert answer.status == 200
+
+
+def _until_idle(gateway: Gateway, controller: str) -> None:
+    """Read ``controller`` from the device until no motor moves and no program runs: what an
+    earlier test started (a jog stopped, a program ended) may still be settling, and the
+    controller refuses settings until then (§10 A: not while moving)."""
+    deadline = time.monotonic() + WAIT
+    while True:
+        url = f"{gateway.url}/api/v1/controllers/{controller}?fresh=true"
+        with urllib.request.urlopen(url) as answer:  # each read waits on the line
+            view = json.load(answer)
+        if not view["moving"] and view["program"] != "1":
+            return
+        assert time.monotonic() < deadline, f"{controller} still busy after {WAIT} s: {view}"
 
 
 def _overview(gateway: Gateway, page: Page) -> None:
@@ -173,6 +189,7 @@ def test_writing_the_speed_profile_sends_oh(gateway: Gateway, session: Session) 
 
 def test_a_position_table_entry_written_in_settings(gateway: Gateway, session: Session) -> None:
     assert gateway.line is not None
+    _until_idle(gateway, "sim.1")
     page = session.page
     page.goto(gateway.url + "/#/controller/sim.1")
     page.get_by_role("button", name="Read 10 entries").click()
