@@ -27,6 +27,7 @@ from gateway.bus.core import DOUBT, LoopCore, Sent
 from gateway.bus.detect import ensure_framing
 from gateway.bus.eeprom_hold import hold_for_write
 from gateway.bus.requests import CommandResult, Outcome, ReplyKind
+from gateway.bus.retries import Retries
 from gateway.bus.selection import confirm_command, needs_selection, select_command
 from gateway.bus.upload import upload
 from gateway.bus.verify import (
@@ -105,17 +106,14 @@ class TransactionRunner:
 
     async def _send_retrying(self, command: Command, motor: int | None) -> Sent:
         """Send with the retries the form allows: '?' always, a lost reply if resendable."""
-        config = self.core.config
-        naks = resends = 0
+        retries = Retries(self.core.config, self.core.counters)
         while True:
             sent = await self.core.send(self.body, command, motor)
-            if sent.kind is ReplyKind.NOT_ACCEPTED and naks < config.nak_retries:
-                naks += 1
-            elif sent.kind in DOUBT and resendable(command) and resends < config.resend_retries:
-                resends += 1
-            else:
-                return sent
-            self.core.counters.retries += 1
+            if sent.kind is ReplyKind.NOT_ACCEPTED and retries.after_nak():
+                continue
+            if sent.kind in DOUBT and retries.after_doubt(command):
+                continue
+            return sent
 
     async def _query(self, command: Command) -> ReplyValue | None:
         """A read the scheduler makes for itself; its value, None when none came."""
@@ -159,7 +157,7 @@ class TransactionRunner:
 
     async def _step(self, command: Command) -> CommandResult:
         core, body, config = self.core, self.body, self.core.config
-        st = _Step(command, value_check(command))
+        st = _Step(command, value_check(command), Retries(config, core.counters))
         while True:
             await ensure_framing(core, body)
             st.framing = core.framing.get(body)
@@ -185,9 +183,7 @@ class TransactionRunner:
                     continue
                 return st.result(sent.kind, Outcome.NOT_DONE, sent.note)
             if sent.kind in DOUBT:
-                if resendable(command) and st.resends < config.resend_retries:
-                    st.resends += 1
-                    core.counters.retries += 1
+                if st.retries.after_doubt(command):
                     continue
                 if resendable(command):
                     return st.result(sent.kind, Outcome.UNKNOWN, sent.note)
@@ -228,15 +224,13 @@ class TransactionRunner:
     def _again_after_nak(self, st: _Step) -> bool:
         """'?': the controller did not take the frame (§9-2); whether to send it again."""
         core = self.core
-        if st.naks < core.config.nak_retries:
-            st.naks += 1
-            core.counters.retries += 1
+        if st.retries.after_nak():
             return True
         if not (st.framing.checksum or st.reframed or core.framing.confirmed(self.body)):
             # A controller with SUM1 answers every frame without a checksum '?' (§10 SUM):
             # read the framing back (it is not known yet), then try once more.
             st.reframed = True
-            st.naks = 0
+            st.retries.naks = 0
             core.framing.suspect(self.body, "every frame answered '?' (SUM1?)")
             return True
         return False
@@ -305,9 +299,8 @@ class _Step:
 
     command: Command
     check: ValueCheck | None
+    retries: Retries
     attempts: int = 0
-    naks: int = 0
-    resends: int = 0
     reframed: bool = False
     framing: Framing = field(default_factory=Framing)
     mark: int = 0  # $B#* seen before the send (EEPROM writes)

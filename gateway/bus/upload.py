@@ -17,6 +17,7 @@ from typing import Any
 from gateway.bus.core import LoopCore
 from gateway.bus.detect import ensure_framing
 from gateway.bus.requests import CommandResult, Outcome, ReplyKind
+from gateway.bus.retries import Retries
 from gateway.bus.timing import ack_chars
 from gateway.protocol import commands
 from gateway.protocol.framing import CR, to_wire
@@ -35,15 +36,14 @@ async def upload(
 ) -> CommandResult:
     """Send ``I`` and ``program``; the result of the whole upload, reported under ``I``."""
     seen: dict[str, Any] = {}
-    naks = attempts = 0
+    retries = Retries(core.config, core.counters)
+    attempts = 0
     while True:
         await ensure_framing(core, body)
         sent = await core.send(body, command)
         attempts += 1
-        if sent.kind is not ReplyKind.NOT_ACCEPTED or naks >= core.config.nak_retries:
+        if sent.kind is not ReplyKind.NOT_ACCEPTED or not retries.after_nak():
             break
-        naks += 1
-        core.counters.retries += 1
     seen["i_reply"] = sent.kind
     if sent.kind in (ReplyKind.NOT_ACCEPTED, ReplyKind.REJECTED):
         return CommandResult(
