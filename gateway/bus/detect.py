@@ -12,7 +12,7 @@ framing found. Query replies do not depend on EL or ER (§10 EL: "query replies 
 
 from __future__ import annotations
 
-from gateway.bus.core import LoopCore
+from gateway.bus.exchange import LoopCore
 from gateway.protocol import commands
 from gateway.protocol.command_replies import ProbeReading, probe_complete, read_probe
 from gateway.protocol.framing import Framing, encode_command

@@ -15,7 +15,7 @@ import asyncio
 import contextlib
 from typing import Any
 
-from gateway.bus.core import LoopCore
+from gateway.bus.exchange import LoopCore
 from gateway.bus.link import LinkLost
 from gateway.bus.requests import Outcome
 from gateway.protocol.commands import ERASE_EEPROM

@@ -153,7 +153,7 @@ class EventBus(Generic[EventT]):
     has nothing to send) events reach only the *urgent* subscribers at once: what decides the
     next frame (the state cache's selection and motion, the programs that may print). Every
     other subscriber gets them, in order, right after; before any caller's task wakes up to
-    read its result. (The scheduler does not defer after a motion or a stop: see ``core``.)
+    read its result. (The scheduler does not defer after a motion or a stop: see ``exchange``.)
     """
 
     def __init__(self) -> None:

@@ -20,7 +20,6 @@ from collections.abc import Callable
 from enum import StrEnum
 
 from gateway.bus.config import LoopConfig
-from gateway.bus.core import LoopCore
 from gateway.bus.counters import Counters, CountersSnapshot
 from gateway.bus.events import (
     BusEvent,
@@ -30,6 +29,7 @@ from gateway.bus.events import (
     TransactionDone,
     UnsolicitedMessage,
 )
+from gateway.bus.exchange import LoopCore
 from gateway.bus.link import Link, LinkLost
 from gateway.bus.messages import framing_artefact, stray_hint
 from gateway.bus.programs_seen import ProgramsSeen

@@ -23,9 +23,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-from gateway.bus.core import DOUBT, LoopCore, Sent
 from gateway.bus.detect import ensure_framing
 from gateway.bus.eeprom_hold import hold_for_write
+from gateway.bus.exchange import DOUBT, LoopCore, Sent
 from gateway.bus.requests import CommandResult, Outcome, ReplyKind
 from gateway.bus.retries import Retries
 from gateway.bus.selection import confirm_command, needs_selection, select_command

@@ -14,8 +14,8 @@ from collections.abc import Awaitable, Callable
 from dataclasses import replace
 from typing import Any
 
-from gateway.bus.core import LoopCore
 from gateway.bus.detect import ensure_framing
+from gateway.bus.exchange import LoopCore
 from gateway.bus.requests import CommandResult, Outcome, ReplyKind
 from gateway.bus.retries import Retries
 from gateway.bus.timing import ack_chars

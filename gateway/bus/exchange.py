@@ -1,4 +1,4 @@
-"""The shared state of one loop's scheduler and its one-frame operation, ``send``.
+"""One frame exchanged on a loop (``LoopCore.send``), and the books it keeps for the scheduler.
 
 ``LoopCore.send`` encodes one command model for its controller's framing (a checksum with
 SUM1, §10 SUM), lets the ``Link`` exchange it, turns the reply into a ``ReplyKind`` and a typed
