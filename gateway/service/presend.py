@@ -135,7 +135,7 @@ class PreSendChecks:
         """An action on ``ref``: remote control, leases, the loop up, the controller online and
         not moving (``active``: the operation in progress on its controller, if any)."""
         self.remote(ref, what)
-        self.leases.check(holder, (ref.id, ref.controller_id))
+        self.axis_lease(ref, holder)
         scheduler = self.gateway.scheduler(ref.loop)
         if scheduler.state is not LinkState.UP:
             raise scheduler.down_error()  # the line first: a dead loop is no busy controller
@@ -154,6 +154,10 @@ class PreSendChecks:
                 "ignored with a command error (§9-1)",
                 field="axis",
             )
+
+    def axis_lease(self, ref: AxisRef, holder: str) -> None:
+        """409 when another holder leases the axis or its controller."""
+        self.leases.check(holder, (ref.id, ref.controller_id))
 
     def remote(self, ref: AxisRef, what: str) -> None:
         """409 when the axis's controller is in local control (``gateway.service.control``)."""

@@ -91,7 +91,6 @@ class AxisService:
     def __init__(self, gateway: Runtime, operations: Operations, leases: Leases) -> None:
         self.gateway = gateway
         self.operations = operations
-        self.leases = leases
         self.checks = PreSendChecks(gateway, leases)
         self.formats = PositionFormats(gateway)
         self._speeds: dict[str, SpeedSettings] = {}  # last read, per axis id (OC while moving)
@@ -189,7 +188,7 @@ class AxisService:
         """Turn until stopped (or a limit): ``7``/``8`` at Low speed, ``H`` for High. On a
         side with a soft limit, a move to that limit at the jog speed (``_jog_to_limit``)."""
         ref = self.ref(ident)
-        self.leases.check(holder, (ref.id, ref.controller_id))
+        self.checks.axis_lease(ref, holder)
         active = self.operations.active(ref.loop, ref.body)
         if (
             active is not None
