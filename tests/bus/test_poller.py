@@ -73,6 +73,14 @@ class Rig:
             r for r in self.sim.log.since(0) if r.kind is RecordKind.HEARD and start <= r.time < end
         ]
 
+    def assert_probed_with_backoff(self, body: str, since: float) -> None:
+        """Offline from ``since``, ``body`` was probed with backoff (0.4, 0.8, 1.6, 2.0 s:
+        ``probe_initial=0.4, probe_max=2.0``), not polled at the idle rate."""
+        probes = [f.time for f in self.frames(f"${body}\r".encode(), since=since)]
+        gaps = [b - a for a, b in pairwise(probes)]
+        assert 2 <= len(probes) <= 5, probes
+        assert gaps == sorted(gaps) and gaps[0] >= 0.4, gaps
+
     def answered(self, text: bytes, start: float, end: float) -> list[LineRecord]:
         """Replies that reached the host in [start, end) to frames ``text``."""
         refs = {r.ref for r in self.frames(text)}
@@ -209,10 +217,7 @@ async def test_a_controller_switched_off_goes_offline_and_comes_back_identified(
     # Offline it is probed with backoff (0.4, 0.8, 1.6, 2.0 s), not polled every 0.2 s.
     offline = r.sim.now()
     await r.sim_time(offline + 5.0)
-    probes = [f.time for f in r.frames(b"$2\r", since=offline)]
-    gaps = [b - a for a, b in pairwise(probes)]
-    assert 2 <= len(probes) <= 5, probes
-    assert gaps == sorted(gaps) and gaps[0] >= 0.4, gaps
+    r.assert_probed_with_backoff("2", offline)
     # Body 1 was polled at its idle rate all along.
     assert len(r.frames(b"$1\r", since=offline)) >= 5.0 / 0.2 * 0.8
     on = r.sim.now()
