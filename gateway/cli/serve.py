@@ -31,6 +31,7 @@ from gateway.api.app import create_app
 from gateway.api.security import AuthConfig, is_loopback
 from gateway.api.ws import uvicorn_ws_options
 from gateway.cli.check_config import NO_TOKENS, check_file, problems_error
+from gateway.cli.connection_guard import uvicorn_connection_options
 from gateway.cli.logs import configure_logging
 from gateway.cli.notify import notify
 from gateway.mqtt.commands import DeviceCommands
@@ -274,6 +275,7 @@ async def serve(args: argparse.Namespace) -> int:
             log_config=None,  # uvicorn's lines go through the one handler (text or JSON)
             access_log=False,  # written by the app, cheaply (gateway.api.access_log)
             **uvicorn_ws_options(config.ws),
+            **uvicorn_connection_options(config.connections),
             timeout_graceful_shutdown=10,
         )
     )

@@ -39,6 +39,7 @@ __all__ = [
     "NAME_PATTERN",
     "AxisSettings",
     "ConfigError",
+    "ConnectionSettings",
     "ControllerSettings",
     "GatewayConfig",
     "LocalInputSettings",
@@ -201,6 +202,22 @@ class WsSettings(_Strict):
     ping_interval: float = Field(20.0, gt=0, le=600)
 
 
+class ConnectionSettings(_Strict):
+    """Limits on the API's HTTP connections (gateway/cli/connection_guard.py): a client
+    that sends too much, too slowly or nothing at all is closed before the app sees it."""
+
+    #: request line and headers together, in bytes; more: ``431``
+    max_head_bytes: int = Field(16_384, ge=1_024, le=1_048_576)
+    #: seconds a new connection may stay silent before it is closed
+    idle_timeout: float = Field(10.0, gt=0, le=600)
+    #: seconds from a request head's first byte to its end; later: ``408``
+    head_timeout: float = Field(10.0, gt=0, le=600)
+    #: open connections in all (fewer if the descriptor limit leaves no reserve)
+    max_connections: int = Field(1_024, ge=16, le=100_000)
+    #: open connections from one client address; more: ``429``
+    max_per_client: int = Field(64, ge=1, le=100_000)
+
+
 class MqttSettings(_Strict):
     """The Sparkplug B edge node (gateway/mqtt): off unless the section is present.
 
@@ -246,6 +263,7 @@ class GatewayConfig(BaseSettings):
     security: SecuritySettings = SecuritySettings()
     audit_log: Path | None = None
     ws: WsSettings = WsSettings()
+    connections: ConnectionSettings = ConnectionSettings()
     mqtt: MqttSettings | None = None
 
     @model_validator(mode="after")
