@@ -244,6 +244,10 @@ class MqttSettings(_Strict):
     #: reconnect back-off: first and longest wait in seconds
     reconnect_min: float = Field(0.5, gt=0, le=60)
     reconnect_max: float = Field(30.0, gt=0, le=600)
+    #: bytes; a received payload over this is dropped before it is decoded (counted, logged)
+    max_payload: int = Field(65_536, ge=1_024, le=16_777_216)
+    #: the Sparkplug 3.0 Primary Host Application's id: births wait for its STATE online
+    primary_host: str | None = Field(None, pattern=r"^[^+/#\s]{1,64}$")
 
     @model_validator(mode="after")
     def _tls_files(self) -> Self:

@@ -170,6 +170,8 @@ class Central:
         async for message in client.messages:
             parts = str(message.topic).split("/")
             assert isinstance(message.payload, bytes)
+            if parts[1] == "STATE":  # a host application's JSON, not a Sparkplug payload
+                continue
             payload = decode(message.payload)
             kind, node = parts[2], parts[3]
             device = parts[4] if len(parts) > 4 else None
