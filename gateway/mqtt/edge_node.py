@@ -28,11 +28,11 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
-import ssl
 
 import aiomqtt
 from paho.mqtt.subscribeoptions import SubscribeOptions
 
+from gateway.mqtt.broker_client import broker_client, client_id
 from gateway.mqtt.commands import DeviceCommands
 from gateway.mqtt.metric_table import MetricTable, Values, axis_label, changed, device_id, millis
 from gateway.mqtt.primary_host import PrimaryHost
@@ -181,8 +181,7 @@ class EdgeNode:
         return wait
 
     def _client_id(self) -> str:
-        s = self.settings
-        return s.client_id or f"rc233-{s.group}-{s.edge_node}"
+        return client_id(self.settings)
 
     def close(self) -> None:
         """Stop listening to the cache (after ``run`` is cancelled)."""
@@ -190,23 +189,8 @@ class EdgeNode:
             unlisten()
 
     async def _client(self) -> aiomqtt.Client:
-        s = self.settings
-        tls: ssl.SSLContext | None = None
-        if s.tls:
-            tls = await asyncio.to_thread(_tls_context, s)
-        death = self._death_payload()
-        return aiomqtt.Client(
-            s.host,
-            s.port,
-            identifier=self._client_id(),
-            username=s.username,
-            password=s.password.get_secret_value() if s.password else None,
-            keepalive=s.keepalive,
-            tls_context=tls,
-            will=aiomqtt.Will(self._topic(Message.NDEATH), death, qos=1, retain=False),
-            protocol=aiomqtt.ProtocolVersion.V5,
-            clean_start=True,
-        )
+        death = self._topic(Message.NDEATH), self._death_payload()
+        return await broker_client(self.settings, self._client_id(), death)
 
     def _death_payload(self) -> bytes:
         spec = self.table.node["bdSeq"]
@@ -394,11 +378,3 @@ class EdgeNode:
                 metrics = self.table.metrics(self.table.devices[dev], values, moved)
                 await self._send(client, self._topic(Message.DDATA, dev), metrics)
                 self._sent[dev] = values
-
-
-def _tls_context(settings: MqttSettings) -> ssl.SSLContext:
-    """The TLS context of the broker connection (files read here, in a worker thread)."""
-    context = ssl.create_default_context(cafile=str(settings.ca_file) if settings.ca_file else None)
-    if settings.cert_file and settings.key_file:
-        context.load_cert_chain(str(settings.cert_file), str(settings.key_file))
-    return context
