@@ -16,8 +16,10 @@ from contextlib import asynccontextmanager
 from pathlib import Path
 
 import httpx
+import pytest
 
 from gateway.api.security import hash_token
+from gateway.service.config import ConfigError, parse_config
 from tests.serve_process import TIME_SCALE, Served, serve
 
 OPERATOR = "OPERtok-conn-4c1d9e7a"
@@ -192,3 +194,15 @@ async def test_1500_hostile_connections_leave_room_for_a_stop(tmp_path: Path) ->
     assert health.status_code == 200 and stop.status_code == 200, stop.text
     assert health_time < 0.2 and stop_time < 0.2, (health_time, stop_time)
     assert after - before < 50 * 1024, f"RSS grew {(after - before) // 1024} MB"
+
+
+@pytest.mark.parametrize(
+    ("key", "value"),
+    [("max_head_bytes", 100), ("idle_timeout", 0), ("head_timeout", -1), ("max_per_client", 0),
+     ("max_connections", 1), ("sockets", 3)],
+)  # fmt: skip
+def test_a_bad_connection_limit_is_named(key: str, value: int) -> None:
+    loop = {"name": "cell", "port": "/dev/null", "controllers": [{"body": "1"}]}
+    with pytest.raises(ConfigError) as refused:
+        parse_config({"loops": [loop], "connections": {key: value}})
+    assert f"  connections.{key}:" in str(refused.value)
