@@ -151,8 +151,16 @@ class EdgeNode:
                 except DuplicateNode as exc:
                     wait = self._duplicate(str(exc), backoff)
                 except aiomqtt.MqttError as exc:
-                    if taken_over(exc) or backoff.session_lost():
-                        wait = self._duplicate("another client took the MQTT session over", backoff)
+                    if taken_over(exc):
+                        wait = self._duplicate(
+                            "the broker gave our session to another client", backoff
+                        )
+                    elif backoff.session_lost():
+                        what = (
+                            f"the broker closed {backoff.short_losses} sessions in a row "
+                            "soon after they began, as when another client takes them over"
+                        )
+                        wait = self._duplicate(what, backoff)
                     else:
                         wait = backoff.next_wait(takeover=False)
                         log.warning(

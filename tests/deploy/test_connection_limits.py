@@ -17,6 +17,7 @@ from pathlib import Path
 
 import httpx
 import pytest
+from websockets.asyncio.client import connect as ws_connect
 
 from gateway.api.security import hash_token
 from gateway.service.config import ConfigError, parse_config
@@ -132,6 +133,27 @@ async def test_one_address_gets_its_share_of_connections(tmp_path: Path) -> None
                     break
         for _, held_writer in held:
             held_writer.close()
+
+
+async def healthz_from(port: int, source: str) -> bool:
+    """Whether ``GET /healthz`` from ``source`` is answered 200 (not refused)."""
+    reader, writer = await connect(port, source)
+    writer.write(b"GET /healthz HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n")
+    line = await asyncio.wait_for(reader.readline(), WAIT)
+    writer.close()
+    return line.startswith(b"HTTP/1.1 200 ")
+
+
+async def test_a_websocket_keeps_its_place_until_it_closes(tmp_path: Path) -> None:
+    async with gateway(tmp_path, "max_per_client = 1") as server:
+        url = f"ws://127.0.0.1:{server.port}/api/v1/ws?token={OPERATOR}"
+        async with ws_connect(url, local_addr=("127.0.0.3", 0), open_timeout=WAIT) as ws:
+            await ws.send('{"type": "ping", "id": "1"}')
+            assert '"pong"' in str(await asyncio.wait_for(ws.recv(), WAIT))
+            assert not await healthz_from(server.port, "127.0.0.3")  # its one place is taken
+        async with asyncio.timeout(WAIT):
+            while not await healthz_from(server.port, "127.0.0.3"):
+                pass  # given back once the gateway saw the WebSocket close
 
 
 def _rss_kib(pid: int) -> int:
