@@ -26,6 +26,7 @@ from __future__ import annotations
 import asyncio
 import logging
 import resource
+import time
 from collections import OrderedDict
 from dataclasses import dataclass, field
 from typing import Any
@@ -48,6 +49,9 @@ log = logging.getLogger("gateway.connections")
 #: the files a request opens, and the connections accepted in one burst before the oldest
 #: waiting ones are closed.
 RESERVED_DESCRIPTORS = 128
+
+#: Seconds between two log lines about refused or pushed-out connections.
+REPORT_INTERVAL = 60.0
 
 #: Seconds a refused connection is still read (and the bytes dropped) after the answer.
 LINGER = 1.0
@@ -90,20 +94,24 @@ class ConnectionBook:
     waiting: OrderedDict[Any, None] = field(default_factory=OrderedDict)
     refused: int = 0
     pushed_out: int = 0
+    _logged: tuple[float, int, int] = (-REPORT_INTERVAL, 0, 0)  # when, refused, pushed out
 
     def admit(self, connection: Any, client: str) -> bool:
         """Count ``connection`` from ``client``; False: refuse it (its address has its
         share). At the total limit the longest-waiting idle connection is closed for it."""
         if self.per_client.get(client, 0) >= self.max_per_client:
             self.refused += 1
+            self._report()
             return False
         while len(self.open) >= self.max_connections and self.waiting:
             oldest, _ = self.waiting.popitem(last=False)
             self.release(oldest)
             self.pushed_out += 1
             oldest.push_out()
+            self._report()
         if len(self.open) >= self.max_connections:
             self.refused += 1
+            self._report()
             return False
         self.open[connection] = client
         self.per_client[client] = self.per_client.get(client, 0) + 1
@@ -120,6 +128,21 @@ class ConnectionBook:
             self.per_client[client] = left
         else:
             self.per_client.pop(client, None)
+
+    def _report(self) -> None:
+        """One WARNING per ``REPORT_INTERVAL`` with the counts since the last one: a flood
+        of connections must not become a flood of log lines."""
+        now = time.monotonic()
+        when, refused, pushed = self._logged
+        if now - when < REPORT_INTERVAL:
+            return
+        self._logged = (now, self.refused, self.pushed_out)
+        log.warning(
+            "connections: %d refused (an address over its share, or no place), %d closed "
+            "for newer ones since the last report; %d open from %d addresses",
+            self.refused - refused, self.pushed_out - pushed, len(self.open),
+            len(self.per_client),
+        )  # fmt: skip
 
     def mark_waiting(self, connection: Any) -> None:
         """``connection`` has no request in progress: it may be pushed out."""

@@ -133,6 +133,8 @@ async def test_one_address_gets_its_share_of_connections(tmp_path: Path) -> None
                     break
         for _, held_writer in held:
             held_writer.close()
+    # One line for the refusals of a minute, not one per connection.
+    assert len([line for line in server.log if "connections: 1 refused" in line]) == 1
 
 
 async def healthz_from(port: int, source: str) -> bool:
