@@ -144,12 +144,13 @@ def problems_lines(problems: Sequence[str]) -> list[str]:
 def _check(args: argparse.Namespace) -> int:
     report = check_report(args.file, no_auth=args.no_auth, strict=args.strict)
     config, problems = report.config, report.problems
+    if problems:
+        print(f"{args.file}: {len(problems)} problem(s)")
+        print("\n".join(problems_lines(problems)))
     if report.warnings:
         print(f"{args.file}: {len(report.warnings)} warning(s)")
         print("\n".join(problems_lines(report.warnings)))
     if problems:
-        print(f"{args.file}: {len(problems)} problem(s)")
-        print("\n".join(problems_lines(problems)))
         return 1
     assert config is not None
     controllers = sum(len(loop.controllers) for loop in config.loops)
