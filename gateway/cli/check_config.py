@@ -108,7 +108,7 @@ def check_report(
     config: GatewayConfig | None = None
     schema: list[str] = []
     try:
-        config = GatewayConfig(**data)  # type: ignore[arg-type]
+        config = GatewayConfig(**data)
     except ValidationError as exc:
         schema = schema_problems(exc)
     report = _site(data, ports=ports)
