@@ -282,3 +282,41 @@ def test_check_config_as_a_process_stays_within_bounds(tmp_path: Path, name: str
     assert done.returncode == 1, done.stderr  # not killed by a limit, not a traceback
     assert words in done.stdout
     assert done.stderr == ""
+
+
+@pytest.mark.parametrize(
+    ("text", "where", "words"),
+    [
+        ('audit_log = "a\\u0000b"\n', "audit_log", "holds a NUL character"),
+        (
+            '[[loops]]\nname = "m"\nport = "/dev/x\\u0000y"\n[[loops.controllers]]\nbody = "1"\n',
+            "loops[0].port",
+            "control characters are not allowed",
+        ),
+        ('loops = [1, "a", {port = 5}]\n', "loops[2].port", "Input should be a valid string"),
+        ("loops = {a = 1}\n", "loops", "Input should be a valid list"),
+    ],
+)
+def test_odd_values_are_named_never_a_traceback(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], text: str, where: str, words: str
+) -> None:
+    # Before: ValueError("embedded null byte") from os.stat, a traceback.
+    path = tmp_path / "cell.toml"
+    path.write_text(text)
+    code, out = checked(path, capsys)
+    assert code == 1, out
+    assert words in problems_of(out)[where], out
+
+
+def test_serve_lists_fifty_problems_and_counts_the_rest(
+    tmp_path: Path, tty: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = tmp_path / "cell.toml"
+    path.write_text("".join(f"k{i} = {i}\n" for i in range(500)) + LOOP.format(name="m", port=tty))
+    assert main(["serve", "--config", str(path), "--no-auth"]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert err[0] == f"rc233-gateway serve: {path}: 500 problem(s)"
+    assert err[1:] == [
+        *(f"  k{i}: Extra inputs are not permitted" for i in range(50)),
+        "  ... and 450 more problem(s)",
+    ]

@@ -54,6 +54,8 @@ NO_TOKENS = (
 def _audit_problem(value: Any) -> str | None:
     if value is None:
         return None
+    if "\0" in str(value):  # the OS refuses such a path: said here, not as a traceback
+        return f"audit_log: {str(value)!r} holds a NUL character"
     path = Path(str(value))
     if path.is_dir():
         return f"audit_log: {path} is a directory, not a file"

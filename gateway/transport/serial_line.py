@@ -67,6 +67,9 @@ class LineKind(Enum):
     @classmethod
     def of(cls, url: str) -> LineKind:
         """The kind of ``url``; ``ValueError`` naming the field ``url`` if it is none of them."""
+        if any(ord(char) < 0x20 or char == "\x7f" for char in url):
+            # a NUL makes the OS refuse the path with a ValueError, a newline hides in the log
+            raise ValueError(f"url {url!r}: control characters are not allowed; {_ALLOWED}")
         if "://" not in url:
             if url.startswith("/") and url.strip() == url and len(url) > 1:
                 return cls.DEVICE
