@@ -105,7 +105,10 @@ def test_every_section_refuses_a_float_that_is_not_finite(
     path.write_text(LOOP.format(name="main", port=tty) + section + "\n")
     code, out = checked(path, capsys)
     assert code == 1, out
-    assert list(problems_of(out)) == [where], out
+    found = problems_of(out)
+    assert list(found) == [where], out
+    # Said as what it is (before: "greater than or equal to 0" for a NaN turnaround)
+    assert "finite number (NaN and ±inf are refused" in found[where], out
 
 
 def test_soft_limits_in_order_and_finite(
