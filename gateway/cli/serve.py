@@ -1,7 +1,8 @@
 """``rc233-gateway serve``: the REST/WebSocket API on the loops of a configuration file.
 
 ``serve --config cell.toml`` runs the loops the file describes, once every problem
-``rc233-gateway check-config`` finds in it is fixed. ``serve --simulate`` runs in-process
+``rc233-gateway check-config`` finds in it is fixed; a loop whose device is not there (yet)
+starts down and comes up when it appears. ``serve --simulate`` runs in-process
 simulated loops: without a file one loop (``sim``) with three controllers whose axes are named
 (gateway/service/simulated.py); with ``--config`` the file's loops, controllers, names, units,
 tokens and audit log, each loop's port replaced by a simulated loop (9600 bps). Either takes
@@ -30,7 +31,7 @@ import uvicorn
 from gateway.api.app import create_app
 from gateway.api.security import AuthConfig, is_loopback
 from gateway.api.ws import uvicorn_ws_options
-from gateway.cli.check_config import NO_TOKENS, check_file, problems_error
+from gateway.cli.check_config import NO_TOKENS, check_report, problems_error
 from gateway.cli.connection_guard import uvicorn_connection_options
 from gateway.cli.logs import configure_logging
 from gateway.cli.notify import notify
@@ -236,10 +237,14 @@ def _configured(args: argparse.Namespace) -> GatewayConfig | None:
     """The ``--config`` file, once ``check-config`` finds no problem in it (None: no file)."""
     if args.config is None:
         return None
-    config, problems = check_file(args.config, no_auth=args.no_auth, ports=not args.simulate)
-    if problems:
-        raise problems_error(args.config, problems)
-    return config
+    report = check_report(args.config, no_auth=args.no_auth, ports=not args.simulate)
+    if report.problems:
+        raise problems_error(args.config, report.problems)
+    # A port not there yet (an adapter unplugged) is one loop down, not a gateway that cannot
+    # start: its scheduler opens it with back-off and the loop is up once the device appears.
+    for warning in report.warnings:
+        log.warning("%s: %s", args.config, warning)
+    return report.config
 
 
 async def serve(args: argparse.Namespace) -> int:

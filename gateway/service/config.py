@@ -15,7 +15,6 @@ e.g. ``RC233_AUDIT_LOG``.
 from __future__ import annotations
 
 import dataclasses
-import tomllib
 from pathlib import Path
 from typing import Annotated, Any, Literal, Self
 
@@ -33,6 +32,7 @@ from gateway.bus.config import LoopConfig
 from gateway.bus.poll_plan import PollConfig
 from gateway.errors import GatewayError
 from gateway.protocol.framing import BAUD_RATES, BODY_NUMBERS
+from gateway.service.config_bounds import UnreadableConfig, listed, read_toml
 from gateway.service.roles import Role
 
 __all__ = [
@@ -51,6 +51,7 @@ __all__ = [
     "TokenSettings",
     "WsSettings",
     "load_config",
+    "schema_problems",
 ]
 
 #: Names of loops, controllers and axes: no dots, so a name never reads as an id (`main.1.2`).
@@ -63,7 +64,9 @@ class ConfigError(GatewayError):
 
 
 class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    # allow_inf_nan: a NaN limit compares false with everything (a limit silently off), an
+    # infinite scale turns every target into 0 or inf; every float of the file is finite.
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
 
 class AxisSettings(_Strict):
@@ -261,7 +264,9 @@ class MqttSettings(_Strict):
 class GatewayConfig(BaseSettings):
     """The whole configuration (a TOML file, environment ``RC233_*`` over it)."""
 
-    model_config = SettingsConfigDict(extra="forbid", frozen=True, env_prefix="RC233_")
+    model_config = SettingsConfigDict(
+        extra="forbid", frozen=True, env_prefix="RC233_", allow_inf_nan=False
+    )
 
     loops: list[LoopSettings] = Field(min_length=1)
     security: SecuritySettings = SecuritySettings()
@@ -297,12 +302,26 @@ def _where(loc: tuple[int | str, ...]) -> str:
     return out or "(file)"
 
 
-def describe(exc: ValidationError, source: str) -> ConfigError:
-    """One ``ConfigError`` naming every key at fault and its problem."""
-    lines = [f"{source}: {len(exc.errors())} problem(s)"]
-    for err in exc.errors():
+def schema_problems(exc: ValidationError) -> list[str]:
+    """Every key at fault in ``exc`` and its problem, one a line (``key: problem``)."""
+    problems = []
+    for err in exc.errors(include_url=False):
         where = _where(tuple(p for p in err["loc"] if not isinstance(p, str) or p))
-        lines.append(f"  {where}: {err['msg']}")
+        # the value only where it is the point: NaN and inf read as numbers in TOML
+        said = (
+            f" (NaN and ±inf are refused, got {err['input']})"
+            if err["type"] == "finite_number"
+            else ""
+        )
+        problems.append(f"{where}: {err['msg']}{said}")
+    return problems
+
+
+def describe(exc: ValidationError, source: str) -> ConfigError:
+    """One ``ConfigError`` naming the keys at fault and their problems (the first
+    ``MAX_LISTED``, then how many more)."""
+    problems = schema_problems(exc)
+    lines = [f"{source}: {len(problems)} problem(s)", *(f"  {p}" for p in listed(problems))]
     return ConfigError("\n".join(lines))
 
 
@@ -317,9 +336,9 @@ def parse_config(data: dict[str, object], source: str = "configuration") -> Gate
 def load_config(path: Path) -> GatewayConfig:
     """Read and validate a TOML file; ``ConfigError`` naming the key and the problem."""
     try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
+        data = read_toml(path)  # bounded: no file makes the parser run out of memory or time
     except OSError as exc:
         raise ConfigError(f"{path}: cannot read the file ({exc.strerror})") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"{path}: not valid TOML ({exc})") from None
+    except UnreadableConfig as exc:
+        raise ConfigError(f"{path}: {exc}") from None
     return parse_config(data, str(path))
