@@ -88,7 +88,11 @@ class StateStore:
     async def open(cls, directory: Path | None) -> StateStore:
         """The store of ``directory`` (created, mode 0700), opened in its own thread."""
         store = cls(directory)
-        await asyncio.get_running_loop().run_in_executor(store._executor, store._open)
+        try:
+            await asyncio.get_running_loop().run_in_executor(store._executor, store._open)
+        except BaseException:
+            store._executor.shutdown(wait=False)
+            raise
         return store
 
     @classmethod
@@ -103,11 +107,13 @@ class StateStore:
             try:
                 self.directory.mkdir(mode=0o700, parents=True, exist_ok=True)
                 self._lock = self._take_lock(self.directory)
-                connection = sqlite3.connect(self.path or ":memory:", isolation_level=None)
+                self._connection = sqlite3.connect(self.path or ":memory:", isolation_level=None)
+                connection = self._connection
                 connection.execute("PRAGMA journal_mode=WAL").fetchone()
                 connection.execute("PRAGMA synchronous=FULL")
                 self._prepare(connection)
             except (OSError, sqlite3.Error) as exc:
+                self._close()  # the directory is free again for a later attempt
                 where = f"state_dir {self.directory}"
                 raise ConfigError(f"{where}: cannot open the state ({exc})") from None
         else:

@@ -7,7 +7,7 @@ crash, a retry with that key finds the operation and never starts another.
 
 Retention: an operation stays ``OPERATION_RETENTION`` seconds after it ended (one that never
 ended stays until it is resolved); a key stays ``KEY_RETENTION`` seconds after its request.
-``purge`` drops the rest (at start and then hourly).
+``purge`` drops the rest (at each start).
 """
 
 from __future__ import annotations
