@@ -17,9 +17,10 @@ import pytest
 
 from tests.restart_rig import WAIT, RestartRig
 
-#: Fast enough for a test, slow enough that a 3,000-pulse move is still going when killed.
-SCALE = 2.0
-MOVE = {"position": 3000, "unit": "pulse"}
+#: Real time: a 9,000-pulse move takes some 4 s (3,000 pulses: 1.3 s), so that it is still
+#: going when the gateway is killed, even on a busy machine.
+SCALE = 1.0
+MOVE = {"position": 9000, "unit": "pulse"}
 
 
 @pytest.fixture
@@ -37,18 +38,20 @@ async def test_a_key_accepted_before_a_kill_is_replayed_after_the_restart_and_ne
 ) -> None:
     key = {"Idempotency-Key": "mes-order-4711-move"}
     gateway = await rig.serve()
-    async with httpx.AsyncClient(base_url=gateway.url + "/api/v1", timeout=WAIT) as client:
-        async with rig.events() as until:
-            # The MES waits for the end: the gateway dies before it can answer.
-            first = asyncio.ensure_future(
-                client.post("/axes/x/move?wait=true", json=MOVE, headers=key)
-            )
-            op = await until(lambda data: data["state"] == "moving")
-            rig.kill()  # mid-move: the controller goes on alone
-            await rig.wait_killed()
-            with pytest.raises(httpx.TransportError):
-                await first
-    assert (await rig.axis("1", 1))["position"] < 3000  # killed before the move's end
+    async with (
+        httpx.AsyncClient(base_url=gateway.url + "/api/v1", timeout=WAIT) as client,
+        rig.events() as until,
+    ):
+        # The MES waits for the end: the gateway dies before it can answer.
+        first = asyncio.ensure_future(
+            client.post("/axes/x/move?wait=true", json=MOVE, headers=key)
+        )
+        op = await until(lambda data: data["state"] == "moving")
+        rig.kill()  # mid-move: the controller goes on alone
+        await rig.wait_killed()
+        with pytest.raises(httpx.TransportError):
+            await first
+    assert (await rig.axis("1", 1))["position"] < 9000  # killed before the move's end
     frames = op["frames"]  # the target (§10 2) and the start (§10 3)
     assert [await rig.heard(frame) for frame in frames] == [1, 1], frames
 
@@ -67,14 +70,14 @@ async def test_a_key_accepted_before_a_kill_is_replayed_after_the_restart_and_ne
                     and data["state"] in ("done", "failed", "unknown")
                 )
         assert resolved["state"] == "done", resolved
-        assert resolved["position"] == 3000 and resolved["error"] is None
+        assert resolved["position"] == 9000 and resolved["error"] is None
         again = await client.post("/axes/x/move?wait=true", json=MOVE, headers=key)
         assert again.status_code == 200 and again.headers["idempotent-replayed"] == "true"
         assert again.json()["state"] == "done"
         listed = (await client.get(f"/operations/{op['id']}")).json()
         assert listed["state"] == "done" and listed["frames"] == frames
     assert [await rig.heard(frame) for frame in frames] == [1, 1]  # the retries sent nothing
-    assert (await rig.axis("1", 1))["position"] == 3000
+    assert (await rig.axis("1", 1))["position"] == 9000
 
 
 async def test_a_completed_move_is_replayed_after_a_clean_restart(rig: RestartRig) -> None:

@@ -46,7 +46,9 @@ async def test_a_move_the_axis_finished_is_done_after_the_restart(tmp_path: Path
         view = json_of(await api.client.get("/operations/op-7-00000001"))
         assert view["state"] == "done" and view["frames"] == ["$1F1", "$12-500", "$13"]
         # the numbers go on from the last process's: no id comes back
-        new = await api.client.post("/axes/x/move?wait=true", json={"position": 10, "unit": "pulse"})
+        new = await api.client.post(
+            "/axes/x/move?wait=true", json={"position": 10, "unit": "pulse"}
+        )
         assert json_of(new)["id"].startswith("op-8-")
 
 
