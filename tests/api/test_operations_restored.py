@@ -4,7 +4,9 @@ refused before it is sent."""
 
 from __future__ import annotations
 
+import asyncio
 import sqlite3
+import threading
 from pathlib import Path
 from typing import Any
 
@@ -14,7 +16,7 @@ from gateway.service.operations.durable import to_record
 from gateway.service.operations.types import Operation, OperationState
 from gateway.service.runtime.simulated import simulated_config
 from gateway.service.store import StateStore
-from gateway.service.store.records import insert_operation
+from gateway.service.store.records import insert_operation, load_operations
 from gateway.service.topology import Topology
 from tests.api.sim_app import json_of, running_app
 
@@ -112,3 +114,35 @@ async def test_a_motion_that_cannot_be_recorded_is_refused_and_not_sent() -> Non
         assert [t for t in api.heard("1", mark) if t.startswith(("2", "3"))] == []  # §10 2, 3
         assert api.position("1", 1) == 0
         assert api.operations.active("sim", "1") is None  # the controller is free again
+
+
+async def test_a_request_gone_before_its_record_is_written_sends_nothing() -> None:
+    async with running_app() as api:
+        store = api.gateway.store
+        disk = threading.Event()
+        store.post(lambda _c: disk.wait(WAIT))  # a slow disk: the store's thread is held
+        mark = api.mark()
+        request = asyncio.ensure_future(
+            api.client.post("/axes/x/move", json={"position": 1500, "unit": "pulse"})
+        )
+        async with asyncio.timeout(WAIT):
+            while api.operations.active("sim", "1") is None:
+                await asyncio.sleep(0)  # a turn of the loop, no time: the request runs up to
+                # the write of its record, where it waits for the disk
+        op = api.operations.active("sim", "1")
+        assert op is not None
+        request.cancel()
+        with pytest.raises(asyncio.CancelledError):
+            await request
+        disk.set()
+        await store.drain()
+        assert api.operations.active("sim", "1") is None  # the controller is free again
+        assert op.state is OperationState.FAILED and op.error is not None
+        assert "nothing was sent" in op.error.detail
+        assert [t for t in api.heard("1", mark) if t.startswith(("2", "3"))] == []
+        (stored,) = await store.run(lambda c: load_operations(c, 10))
+        assert stored["id"] == op.id and stored["state"] == "failed"
+        moved = await api.client.post(
+            "/axes/x/move?wait=true", json={"position": 10, "unit": "pulse"}
+        )
+        assert moved.status_code == 200

@@ -205,10 +205,19 @@ class Operations:
             step=step,
         )
         self._active[key] = op
+        record, started_by = to_record(op), request_key.get()
+        write = asyncio.ensure_future(
+            self.gateway.store.run(lambda c: insert_operation(c, number, record, started_by))
+        )
         try:
             # On disk before the first frame: after a crash, the key finds this operation.
-            record, started_by = to_record(op), request_key.get()
-            await self.gateway.store.run(lambda c: insert_operation(c, number, record, started_by))
+            await asyncio.shield(write)
+        except asyncio.CancelledError:
+            # The caller went away first: nothing is sent. The end is queued after the write.
+            self._store(op)
+            detail = "the request went away before the operation was recorded; nothing was sent"
+            self.end(op, OperationState.FAILED, OperationError.of("refused", "Not sent", detail))
+            raise
         except Exception as exc:
             del self._active[key]
             raise StateUnavailable(
