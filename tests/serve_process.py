@@ -54,7 +54,9 @@ async def serve(
     ``files``: the process's soft descriptor limit (systemd's default is 1,024)."""
     port = free_port()
     argv = options or ("--simulate", "--no-auth", "--time-scale", str(TIME_SCALE))
-    env = {**os.environ, "XDG_DATA_HOME": str(tmp_path), **(env or {})}
+    # XDG_STATE_HOME: a real line's default state directory is the test's own, never the user's
+    env = {**os.environ, "XDG_DATA_HOME": str(tmp_path), "XDG_STATE_HOME": str(tmp_path),
+           **(env or {})}  # fmt: skip
     if "--simulate" in argv and "--eeprom-dir" not in argv:
         argv = (*argv, "--eeprom-dir", str(tmp_path / "eeprom"))
     process = await asyncio.create_subprocess_exec(

@@ -20,8 +20,10 @@ import argparse
 import asyncio
 import gc
 import logging
+import shutil
 import socket
 import sys
+import tempfile
 from pathlib import Path
 from types import FrameType
 from typing import Any
@@ -42,6 +44,7 @@ from gateway.service.config import ConfigError, GatewayConfig
 from gateway.service.runtime.runtime import Runtime
 from gateway.service.runtime.simulated import SIM_LOOP, simulated_config
 from gateway.service.runtime.state_log import StateLog
+from gateway.service.store import StateStore, default_state_dir
 from gateway.sim.cli import (
     add_clock_option,
     build_loop,
@@ -258,7 +261,41 @@ async def serve(args: argparse.Namespace) -> int:
     if not args.simulate:
         transports = open_lines(config)
     auth = _auth(args, config)
-    gateway = Runtime(config, transports=transports, time_scale=args.time_scale)
+    state_dir, scratch = _state_dir(config, simulated=args.simulate)
+    try:
+        store = await StateStore.open(state_dir)
+    except BaseException:
+        if scratch:
+            shutil.rmtree(state_dir, ignore_errors=True)
+        raise
+    try:
+        return await _serve(args, config, sims, transports, auth, store)
+    finally:
+        if scratch:
+            shutil.rmtree(state_dir, ignore_errors=True)
+
+
+def _state_dir(config: GatewayConfig, *, simulated: bool) -> tuple[Path, bool]:
+    """The state directory, and whether it is this process's own scratch directory: the
+    configuration's ``state_dir``; with ``--simulate`` and none, a new temporary directory
+    (a simulated loop starts from nothing each time); else ``default_state_dir()``."""
+    if config.state_dir is not None:
+        return config.state_dir, False
+    if simulated:
+        return Path(tempfile.mkdtemp(prefix="rc233-gateway-state-")), True
+    return default_state_dir(), False
+
+
+async def _serve(
+    args: argparse.Namespace,
+    config: GatewayConfig,
+    sims: list[SimLoop],
+    transports: dict[str, Transport],
+    auth: AuthConfig,
+    store: StateStore,
+) -> int:
+    """Run the API on ``transports`` with the opened state ``store`` until a signal."""
+    gateway = Runtime(config, transports=transports, time_scale=args.time_scale, store=store)
     StateLog(gateway).start()
     app = create_app(gateway, auth=auth)
     control: asyncio.Server | None = None
@@ -288,7 +325,8 @@ async def serve(args: argparse.Namespace) -> int:
     print(
         f"rc233-gateway serve: dashboard http://{args.host}:{args.port}/ "
         f"API http://{args.host}:{args.port}/api/v1 loops {loops}"
-        + (" [simulated]" if sims else ""),
+        + (" [simulated]" if sims else "")
+        + f" state {store.directory}",
         flush=True,
     )
     edge_node = _edge_node(gateway, config, auth, app)

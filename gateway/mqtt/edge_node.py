@@ -16,7 +16,8 @@ in ``MQTT/Superseded``): the drop-oldest policy, without store-and-forward. Whil
 is away nothing is kept; the rebirth after the reconnection carries the state of that moment.
 
 The broker down or restarting: reconnect with exponential back-off (``reconnect_min`` ..
-``reconnect_max`` seconds, jittered), ``bdSeq`` + 1, rebirth.
+``reconnect_max`` seconds, jittered), ``bdSeq`` + 1, rebirth. ``bdSeq`` is kept in the state
+store before each connection, so it goes on across restarts of the process too.
 
 MQTT 5, for what it tells about the session: oversized payloads are dropped unread, a second
 node with the same id is detected and backed off from (gateway/mqtt/session_guard.py); with
@@ -47,6 +48,8 @@ __all__ = ["EdgeNode"]
 
 log = logging.getLogger("gateway.mqtt")
 
+#: The state store's counter of the last session's ``bdSeq``.
+BD_SEQ_COUNTER = "sparkplug_bdseq"
 #: Real seconds the NDEATH of a shutdown may take before the connection is simply dropped.
 DEATH_TIMEOUT = 2.0
 
@@ -67,7 +70,8 @@ class EdgeNode:
             gateway.topology, gateway.state, commands=self.commands is not None
         )
         self._by_body = {(c.loop, c.body): device_id(c) for c in gateway.topology.controllers()}
-        self.bd_seq = -1  # the first connection uses 0
+        # The next connection's bdSeq follows the last one of any process before (the store).
+        self.bd_seq = gateway.store.counters.get(BD_SEQ_COUNTER, -1)
         self.seq = 0
         self.superseded = 0
         self.takeovers = 0
@@ -143,6 +147,10 @@ class EdgeNode:
         try:
             while True:
                 self.bd_seq = (self.bd_seq + 1) % 256
+                try:
+                    await self.gateway.store.set_counter(BD_SEQ_COUNTER, self.bd_seq)
+                except Exception as exc:  # the session goes on; a restart may repeat this one
+                    log.error("mqtt: bdSeq %d not stored: %s", self.bd_seq, exc)
                 try:
                     async with await self._client() as client:
                         backoff.connected()

@@ -3,8 +3,8 @@
 One file describes a cell: its loops (port URL, baud, time-outs, poll periods, SUM at
 connect), the controllers on each (body number, name) and their axes (name, user units, soft
 limits), the security section (API tokens stored as SHA-256 hashes, each with a role and a
-name; CORS origins), the audit log and the WebSocket limits. ``deploy/cell.example.toml`` is
-the annotated example.
+name; CORS origins), the audit log, the state directory and the WebSocket limits.
+``deploy/cell.example.toml`` is the annotated example.
 
 Every key is checked before anything starts: an unknown key, a bad value or a broken rule
 raises ``ConfigError``, whose message names the key (``loops[0].controllers[1].body``) and the
@@ -271,6 +271,9 @@ class GatewayConfig(BaseSettings):
     loops: list[LoopSettings] = Field(min_length=1)
     security: SecuritySettings = SecuritySettings()
     audit_log: Path | None = None
+    #: The state directory (SQLite: operations, idempotency keys, Sparkplug bdSeq); None: the
+    #: default of ``gateway.service.store.location`` (docs/operations.md, "The state")
+    state_dir: Path | None = None
     ws: WsSettings = WsSettings()
     connections: ConnectionSettings = ConnectionSettings()
     mqtt: MqttSettings | None = None
