@@ -95,6 +95,7 @@ def create_app(gateway: Runtime, *, auth: AuthConfig) -> FastAPI:
         gateway.config.ws,
         control=gateway.control,
         loop_baud=lambda name: gateway.scheduler(name).timing.baud,
+        loop_adapter=lambda name: gateway.scheduler(name).transport.adapter,
     )
 
     install_log_redaction()  # no token in any log line, whoever prints it

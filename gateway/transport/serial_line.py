@@ -33,6 +33,7 @@ import socket
 import threading
 import urllib.parse
 from collections.abc import Callable
+from pathlib import Path
 from dataclasses import dataclass
 from enum import Enum
 from typing import Any, Protocol, TypeVar
@@ -41,6 +42,7 @@ import serial  # type: ignore[import-untyped]
 import serial_asyncio_fast
 
 from gateway.transport.base import BufferedTransport, ReceiveBuffer, TransportClosed
+from gateway.transport.usb_latency import SYSFS_ROOT, AdapterReport, check_adapter
 
 __all__ = ["KeepAlive", "LineKind", "SerialLine"]
 
@@ -249,6 +251,7 @@ class SerialLine(BufferedTransport):
 
     ``open_timeout`` bounds an open (a TCP connect to an unreachable server, an RFC 2217
     negotiation); ``close_timeout`` bounds waiting for the port to drain when closing.
+    ``sysfs_root`` is where a device path's adapter settings are read (``usb_latency``).
     ``ValueError`` at once if ``url`` is none of the three kinds.
     """
 
@@ -260,13 +263,24 @@ class SerialLine(BufferedTransport):
         open_timeout: float = 10.0,
         close_timeout: float = 3.0,
         keepalive: KeepAlive | None = KeepAlive(),
+        sysfs_root: Path = SYSFS_ROOT,
     ) -> None:
         super().__init__(url, baud)
         self.kind = LineKind.of(url)
         self.open_timeout = open_timeout
         self.close_timeout = close_timeout
         self.keepalive = keepalive
+        self.sysfs_root = sysfs_root
         self._port: _Port | None = None
+        self._adapter: AdapterReport | None = None
+        self._refusal_told = False
+        self._warned: str | None = None
+
+    @property
+    def adapter(self) -> AdapterReport | None:
+        """What the last open of a device path learned about its adapter (``None`` for
+        ``socket://`` and ``rfc2217://``, and before the first open)."""
+        return self._adapter
 
     def write(self, data: bytes) -> None:
         """Queue ``data`` for the line; ``TransportClosed`` when it is not open or was lost."""
@@ -325,12 +339,37 @@ class SerialLine(BufferedTransport):
 
     async def _open_device(self, protocol: LineProtocol) -> _Port:
         # exclusive: a second program on the same port would garble the loop (flock, POSIX)
-        port = await self._in_thread(
-            lambda: serial.serial_for_url(self.url, exclusive=True, **self._settings())
-        )
+        def open_and_check() -> Any:
+            port = serial.serial_for_url(self.url, exclusive=True, **self._settings())
+            self._adapter = check_adapter(port, self.url, self.sysfs_root)
+            return port
+
+        port = await self._in_thread(open_and_check)
+        self._tell(self._adapter)
         loop = asyncio.get_running_loop()
         transport, _ = await serial_asyncio_fast.connection_for_serial(loop, lambda: protocol, port)
         return _AioPort(transport, protocol, self.close_timeout)
+
+    def _tell(self, report: AdapterReport | None) -> None:
+        """Log what an open learned about the adapter, each finding once (a line that
+        reconnects every few seconds must not fill the log with the same words)."""
+        if report is None:
+            return
+        if report.low_latency_refusal is not None and not self._refusal_told:
+            # A pseudo-terminal (the simulator) refuses: that is no fault, only information.
+            self._refusal_told = True
+            log.info(
+                "%s: the driver does not take the low-latency flag (%s)",
+                self.url,
+                report.low_latency_refusal,
+            )
+        warning = report.warning
+        if warning is not None and warning != self._warned:
+            log.warning("%s: %s", self.url, warning)
+        elif warning is None and self._warned is not None:
+            log.info("%s: the adapter's latency timer is %s ms now", self.url,
+                     report.latency_timer_ms)  # fmt: skip
+        self._warned = warning
 
     async def _open_rfc2217(self, protocol: LineProtocol) -> _Port:
         port = await self._in_thread(
