@@ -117,11 +117,14 @@ class CellMetrics:
     def _render_adapters(self, out: Exposition) -> None:
         """Each local adapter as found when its port was last opened: a loop on a network
         line, or not opened yet, has no sample (nothing is known)."""
-        adapters = sorted((
-            (name, report)
-            for name, scheduler in self.gateway.schedulers.items()
-            if (report := scheduler.transport.adapter) is not None
-        ), key=lambda item: item[0])
+        adapters = sorted(
+            (
+                (name, report)
+                for name, scheduler in self.gateway.schedulers.items()
+                if (report := scheduler.transport.adapter) is not None
+            ),
+            key=lambda item: item[0],
+        )
         metric = "rc233_loop_adapter_latency_timer_seconds"
         out.family(metric, "gauge", "The USB adapter's latency timer (sysfs latency_timer).")
         for name, report in adapters:

@@ -33,16 +33,16 @@ import socket
 import threading
 import urllib.parse
 from collections.abc import Callable
-from pathlib import Path
 from dataclasses import dataclass
 from enum import Enum
+from pathlib import Path
 from typing import Any, Protocol, TypeVar
 
 import serial  # type: ignore[import-untyped]
 import serial_asyncio_fast
 
 from gateway.transport.base import BufferedTransport, ReceiveBuffer, TransportClosed
-from gateway.transport.usb_latency import SYSFS_ROOT, AdapterReport, check_adapter
+from gateway.transport.usb_latency import SYSFS_ROOT, AdapterNotes, AdapterReport, check_adapter
 
 __all__ = ["KeepAlive", "LineKind", "SerialLine"]
 
@@ -273,8 +273,7 @@ class SerialLine(BufferedTransport):
         self.sysfs_root = sysfs_root
         self._port: _Port | None = None
         self._adapter: AdapterReport | None = None
-        self._refusal_told = False
-        self._warned: str | None = None
+        self._notes = AdapterNotes(url, log)
 
     @property
     def adapter(self) -> AdapterReport | None:
@@ -345,31 +344,10 @@ class SerialLine(BufferedTransport):
             return port
 
         port = await self._in_thread(open_and_check)
-        self._tell(self._adapter)
+        self._notes.tell(self._adapter)
         loop = asyncio.get_running_loop()
         transport, _ = await serial_asyncio_fast.connection_for_serial(loop, lambda: protocol, port)
         return _AioPort(transport, protocol, self.close_timeout)
-
-    def _tell(self, report: AdapterReport | None) -> None:
-        """Log what an open learned about the adapter, each finding once (a line that
-        reconnects every few seconds must not fill the log with the same words)."""
-        if report is None:
-            return
-        if report.low_latency_refusal is not None and not self._refusal_told:
-            # A pseudo-terminal (the simulator) refuses: that is no fault, only information.
-            self._refusal_told = True
-            log.info(
-                "%s: the driver does not take the low-latency flag (%s)",
-                self.url,
-                report.low_latency_refusal,
-            )
-        warning = report.warning
-        if warning is not None and warning != self._warned:
-            log.warning("%s: %s", self.url, warning)
-        elif warning is None and self._warned is not None:
-            log.info("%s: the adapter's latency timer is %s ms now", self.url,
-                     report.latency_timer_ms)  # fmt: skip
-        self._warned = warning
 
     async def _open_rfc2217(self, protocol: LineProtocol) -> _Port:
         port = await self._in_thread(

@@ -22,6 +22,7 @@ thread that opens the port.
 
 from __future__ import annotations
 
+import logging
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -30,6 +31,7 @@ from typing import Any
 __all__ = [
     "LATENCY_TIMER_LIMIT_MS",
     "SYSFS_ROOT",
+    "AdapterNotes",
     "AdapterReport",
     "check_adapter",
     "read_latency_timer",
@@ -117,3 +119,36 @@ def check_adapter(port: Any, device: str, sysfs_root: Path = SYSFS_ROOT) -> Adap
         latency_timer_ms=read_latency_timer(tty, sysfs_root),
         low_latency_refusal=refusal,
     )
+
+
+class AdapterNotes:
+    """Logs what the opens of one line learn about its adapter, each finding once: a line
+    that reconnects every few seconds must not fill the log with the same words."""
+
+    def __init__(self, url: str, log: logging.Logger) -> None:
+        self.url = url
+        self.log = log
+        self._refusal_told = False
+        self._warned: str | None = None
+
+    def tell(self, report: AdapterReport | None) -> None:
+        """Log ``report``'s news: a refused flag (once), a slow timer (when it becomes
+        slow), the timer put right (when it does)."""
+        if report is None:
+            return
+        if report.low_latency_refusal is not None and not self._refusal_told:
+            # A pseudo-terminal (the simulator) refuses: that is no fault, only information.
+            self._refusal_told = True
+            self.log.info(
+                "%s: the driver does not take the low-latency flag (%s)",
+                self.url,
+                report.low_latency_refusal,
+            )
+        warning = report.warning
+        if warning is not None and warning != self._warned:
+            self.log.warning("%s: %s", self.url, warning)
+        elif warning is None and self._warned is not None:
+            self.log.info(
+                "%s: the adapter's latency timer is %s ms now", self.url, report.latency_timer_ms
+            )
+        self._warned = warning

@@ -40,7 +40,9 @@ def fake_sysfs(root: Path, tty: str, latency_timer: str) -> Path:
 
 
 def records(caplog: pytest.LogCaptureFixture, level: int) -> list[str]:
-    return [r.getMessage() for r in caplog.records if r.name == TRANSPORT_LOG and r.levelno == level]
+    return [
+        r.getMessage() for r in caplog.records if r.name == TRANSPORT_LOG and r.levelno == level
+    ]
 
 
 def test_the_timer_is_found_through_the_links_of_the_configured_path(tmp_path: Path) -> None:
