@@ -5,7 +5,9 @@ source):
 
 * a device path (``/dev/ttyUSB0``): pyserial opens it (``open``, ``tcsetattr``, ``flock``) in a
   worker thread here; ``connection_for_serial`` then reads it through the event loop's reader
-  callbacks. The library closes it (drain, ``close``) in the executor. A vanished device
+  callbacks. In that thread the tty's low-latency flag is set and the adapter's latency timer
+  read (``usb_latency``: a USB adapter that holds received bytes slows every exchange). The
+  library closes it (drain, ``close``) in the executor. A vanished device
   (USB unplugged, pty closed) reads as an error or as readable-but-empty: the library closes
   the port and ``connection_lost`` carries the reason.
 * ``socket://HOST:PORT`` (a serial device server in TCP-server mode: ser2net, Moxa): a TCP

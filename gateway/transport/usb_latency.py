@@ -8,9 +8,9 @@ than double every exchange, and nothing reports an error: the line is just slow.
 settings fix it:
 
 * the tty's ``ASYNC_LOW_LATENCY`` flag (``TIOCSSERIAL``; pyserial's
-  ``set_low_latency_mode``), set here on every open; ``ftdi_sio`` of kernels before 4.x
-  turned it into a 1 ms timer, later ones ignore it, drivers without ``TIOCSSERIAL`` (a
-  pseudo-terminal, ``cdc_acm`` on some kernels) refuse it, which is no error;
+  ``set_low_latency_mode``), set here on every open: ``ftdi_sio`` then uses 1 ms (and its
+  ``latency_timer`` reads 1, so the flag is set before the timer is read); drivers without
+  ``TIOCSSERIAL`` (a pseudo-terminal) refuse it, which is no error;
 * the timer itself, ``/sys/bus/usb-serial/devices/<tty>/latency_timer`` (ms), which only root
   may write: deploy/udev/99-rc233-ftdi-latency.rules sets it to 1 when the adapter appears.
   It is read here on every open and reported (log, the loop's view, a metric) when it is
