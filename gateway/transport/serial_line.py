@@ -340,12 +340,16 @@ class SerialLine(BufferedTransport):
 
     async def _open_device(self, protocol: LineProtocol) -> _Port:
         # exclusive: a second program on the same port would garble the loop (flock, POSIX)
+        # the port alone comes back (a late one is closed by _in_thread); the report beside it
+        found: list[AdapterReport] = []
+
         def open_and_check() -> Any:
             port = serial.serial_for_url(self.url, exclusive=True, **self._settings())
-            self._adapter = check_adapter(port, self.url, self.sysfs_root)
+            found.append(check_adapter(port, self.url, self.sysfs_root))
             return port
 
         port = await self._in_thread(open_and_check)
+        self._adapter = found[0]
         self._notes.tell(self._adapter)
         loop = asyncio.get_running_loop()
         transport, _ = await serial_asyncio_fast.connection_for_serial(loop, lambda: protocol, port)
