@@ -19,10 +19,15 @@ import pytest
 
 from gateway.api.app import create_app
 from gateway.api.security import AuthConfig
+from gateway.bus.state import StateCache
 from gateway.service.config import load_config
+from gateway.service.feed import Feed
 from gateway.service.runtime.runtime import Runtime
+from gateway.service.runtime.simulated import simulated_config
+from gateway.service.topology import Topology
 from gateway.transport import SerialLine
-from gateway.transport.usb_latency import SYSFS_ROOT
+from gateway.transport.usb_latency import SYSFS_ROOT, AdapterReport
+from tests.api.conftest import check_server_message
 from tests.sim_process import sim_on_pty
 
 SCALE = 20.0
@@ -113,3 +118,17 @@ async def test_a_sixteen_ms_timer_shows_in_the_view_the_metrics_and_the_log(
     warned = [r.getMessage() for r in caplog.records
               if r.name == "gateway.transport" and r.levelno == logging.WARNING]  # fmt: skip
     assert len(warned) == 1 and "latency timer is 16 ms" in warned[0], warned
+
+
+def test_the_loop_topic_of_the_websocket_feed_carries_the_adapter() -> None:
+    """The feed takes the report from the loop's line (``loop_adapter``, as create_app wires
+    it): a subscriber's snapshot of the loop shows the slow timer, in the published schema."""
+    report = AdapterReport(tty="ttyUSB0", low_latency=False, latency_timer_ms=16)
+    topology = Topology(simulated_config(("1",)))
+    feed = Feed(topology, StateCache(), loop_adapter={"sim": report}.get)
+    client = feed.subscribe(["loop:sim"])
+    snapshot = check_server_message(client.get_nowait() or "")
+    [loop] = snapshot["loops"]
+    adapter = loop["adapter"]
+    assert adapter["tty"] == "ttyUSB0" and adapter["latency_timer_ms"] == 16
+    assert "16 ms" in adapter["warning"]
