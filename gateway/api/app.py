@@ -39,6 +39,7 @@ from gateway.api.openapi_docs import install_openapi_docs, operation_id
 from gateway.api.problems import install_problem_handlers
 from gateway.api.read_path import AxisReadPath
 from gateway.api.redaction import install_log_redaction
+from gateway.api.request_guard import RequestGuard
 from gateway.api.security import AuthConfig, install_security
 from gateway.service.axes.service import AxisService
 from gateway.service.baud import BaudChanger
@@ -144,7 +145,7 @@ def create_app(gateway: Runtime, *, auth: AuthConfig) -> FastAPI:
     install_dashboard(app, API_PREFIX)
     # Middleware added later wraps what was added before: the cached read innermost, then
     # the problem handlers, security, idempotency, the body gate (inside the audit, which
-    # records what it refuses), audit, metrics, and CORS outermost so that error responses
+    # records what it refuses), audit, the host and origin guard, metrics, and CORS outermost so that error responses
     # carry the CORS headers too.
     # Innermost: the plain cached read of an axis, answered without routing (every layer
     # outside still applies to it); anything else it hands on.
@@ -154,6 +155,13 @@ def create_app(gateway: Runtime, *, auth: AuthConfig) -> FastAPI:
     install_idempotency(app)
     app.add_middleware(BodyGate)
     install_audit(app, audit)
+    # Outside the audit (a request to another host or from another site never reached the
+    # API), inside the metrics and the access line (which count it).
+    app.add_middleware(
+        RequestGuard,
+        allowed_hosts=gateway.config.security.allowed_hosts,
+        cors_origins=gateway.config.security.cors_origins,
+    )
     install_health_and_metrics(app, gateway)
     install_openapi_docs(app)
     security = gateway.config.security
