@@ -30,6 +30,7 @@ from gateway.api import (
     ws,
 )
 from gateway.api.audit import AuditLog, control_entry, install_audit, resolution_entry
+from gateway.api.auth_failures import AuthFailures
 from gateway.api.body_gate import BodyGate
 from gateway.api.dashboard import install_dashboard
 from gateway.api.hardening import HardeningMiddleware
@@ -108,6 +109,7 @@ def create_app(gateway: Runtime, *, auth: AuthConfig) -> FastAPI:
         finally:
             feed.close()
             operations.close()
+            failures.close()
             await gateway.close()
             await audit.close()
 
@@ -145,13 +147,14 @@ def create_app(gateway: Runtime, *, auth: AuthConfig) -> FastAPI:
     install_dashboard(app, API_PREFIX)
     # Middleware added later wraps what was added before: the cached read innermost, then
     # the problem handlers, security, idempotency, the body gate (inside the audit, which
-    # records what it refuses), audit, the host and origin guard, metrics, and CORS outermost so that error responses
-    # carry the CORS headers too.
+    # records what it refuses), audit, the host and origin guard, metrics, and CORS
+    # outermost so that error responses carry the CORS headers too.
     # Innermost: the plain cached read of an axis, answered without routing (every layer
     # outside still applies to it); anything else it hands on.
     app.add_middleware(AxisReadPath, gateway=gateway, prefix=API_PREFIX)
     install_problem_handlers(app)
-    install_security(app, auth)
+    failures = AuthFailures(audit.record)
+    install_security(app, auth, failures)
     install_idempotency(app)
     app.add_middleware(BodyGate)
     install_audit(app, audit)

@@ -63,6 +63,8 @@ def _clean(record: logging.LogRecord) -> None:
     cleaned = redact(message)
     if cleaned != message:
         record.msg, record.args = cleaned, ()
+
+
 class _RedactingFactory:
     """A log record factory that masks secrets in every record it makes."""
 
