@@ -33,6 +33,7 @@ from gateway.api.audit import AuditLog, control_entry, install_audit, resolution
 from gateway.api.auth_failures import AuthFailures
 from gateway.api.body_gate import BodyGate
 from gateway.api.dashboard import install_dashboard
+from gateway.api.fresh_reads import FreshReadGate
 from gateway.api.hardening import HardeningMiddleware
 from gateway.api.health import install_health_and_metrics
 from gateway.api.idempotency import install_idempotency
@@ -152,6 +153,8 @@ def create_app(gateway: Runtime, *, auth: AuthConfig) -> FastAPI:
     # Innermost: the plain cached read of an axis, answered without routing (every layer
     # outside still applies to it); anything else it hands on.
     app.add_middleware(AxisReadPath, gateway=gateway, prefix=API_PREFIX)
+    # Around it: a caller's fresh reads beyond a few at a time become cached reads.
+    app.add_middleware(FreshReadGate, prefix=API_PREFIX)
     install_problem_handlers(app)
     failures = AuthFailures(audit.record)
     install_security(app, auth, failures)

@@ -10,9 +10,13 @@ from typing import Any
 
 import httpx
 import pytest
+from websockets.asyncio.client import connect
+from websockets.exceptions import ConnectionClosed
 
 from gateway.api.auth_failures import FREE_FAILURES, AuthFailures
 from tests.api.sim_app import BASE, DECLARE_JSON, auth, running_app
+from tests.api.test_token_leaks_served import CELL, VIEWER
+from tests.serve_process import TIME_SCALE, serve
 
 WRONG = {"Authorization": "Bearer not-a-token"}
 
@@ -84,7 +88,7 @@ async def test_a_flood_of_wrong_tokens_is_one_record_an_interval(
                 for _ in range(100)
             ]
             missing = [(await api.client.post("/axes/x/stop")).status_code for _ in range(20)]
-    assert statuses[:FREE_FAILURES + 1] == [401] * (FREE_FAILURES + 1)
+    assert statuses[: FREE_FAILURES + 1] == [401] * (FREE_FAILURES + 1)
     assert set(statuses[FREE_FAILURES + 1 :]) == {429} and set(missing) == {429}
     entries = [json.loads(line) for line in path.read_text("utf-8").splitlines()]
     failed = [e for e in entries if e.get("event") == "authentication_failed"]
@@ -113,3 +117,23 @@ async def test_the_pending_count_is_written_when_the_interval_ends() -> None:
     assert [r["count"] for r in records] == [1]
     await asyncio.wait_for(written.wait(), 10)
     assert [r["count"] for r in records] == [1, 29]
+
+
+async def test_a_websocket_guessing_tokens_is_made_to_wait(tmp_path: Path) -> None:
+    config = tmp_path / "cell.toml"
+    config.write_text(CELL.format(audit=tmp_path / "audit.jsonl"), "utf-8")
+    options = ("--simulate", "--config", str(config), "--time-scale", str(TIME_SCALE))
+    async with serve(tmp_path, *options) as served:
+        ws = served.url.replace("http", "ws") + "/api/v1/ws"
+        codes = []
+        for _ in range(FREE_FAILURES + 2):
+            async with connect(f"{ws}?token=guess", open_timeout=30) as conn:
+                with pytest.raises(ConnectionClosed):
+                    await asyncio.wait_for(conn.recv(), 30)
+                assert conn.close_code is not None
+                codes.append(conn.close_code)
+        assert codes == [4401] * (FREE_FAILURES + 1) + [4429], codes
+        async with connect(f"{ws}?token={VIEWER}", open_timeout=30) as conn:
+            with pytest.raises(ConnectionClosed):  # the right token waits too
+                await asyncio.wait_for(conn.recv(), 30)
+            assert conn.close_code == 4429 and "retry in" in (conn.close_reason or "")
