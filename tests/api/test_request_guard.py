@@ -1,0 +1,79 @@
+"""The host, origin and JSON rules in the app: what a refused request leaves on the wire
+(nothing), and the settings that widen them (``allowed_hosts``, ``cors_origins``)."""
+
+from __future__ import annotations
+
+import pytest
+
+from gateway.api.request_guard import HostRule
+from gateway.service.runtime.simulated import simulated_config
+from tests.api.sim_app import running_app
+
+EVIL = "http://evil.example"
+JSON = {"Content-Type": "application/json"}
+
+
+async def test_refused_acts_put_nothing_on_the_wire() -> None:
+    async with running_app(("1",)) as api:
+        mark = api.mark()
+        refused = [
+            await api.client.post("/axes/x/home", headers={"Origin": EVIL, **JSON}),
+            await api.client.post("/axes/x/home", headers={"Host": "evil.example", **JSON}),
+            await api.client.post("/axes/x/home", headers={"Content-Type": "text/plain"}),
+            await api.client.post(
+                "/axes/x/home",
+                headers={"Content-Type": "application/x-www-form-urlencoded"},
+                content=b"method=0",
+            ),
+            await api.client.put("/axes/x/speed", headers={"Origin": EVIL, **JSON}, json={}),
+            await api.client.delete("/axes/x/lease", headers={"Content-Type": ""}),
+        ]
+        assert [r.status_code for r in refused] == [403, 421, 415, 415, 403, 415]
+        assert all(r.headers["content-type"] == "application/problem+json" for r in refused)
+        # Nothing but the poller's reads went out: no home (``0``), no speed, no lease taken.
+        sent = api.heard("1", since=mark)
+        assert not [c for c in sent if c.startswith(("0", "F", "D", "S"))], sent
+        own = await api.client.post("/axes/x/stop", headers={"Origin": "http://localhost", **JSON})
+        assert own.status_code == 200, own.text
+
+
+async def test_allowed_hosts_and_cors_origins_widen_the_rules() -> None:
+    config = simulated_config(("1",))
+    security = config.security.model_copy(
+        update={"allowed_hosts": ["gw.plant.example"], "cors_origins": ["https://mes.example"]}
+    )
+    config = config.model_copy(update={"security": security})
+    async with running_app(("1",), config=config) as api:
+        named = await api.client.get("/axes", headers={"Host": "GW.plant.example:8443"})
+        assert named.status_code == 200, named.text
+        assert (await api.client.get("/axes", headers={"Host": "other.example"})).status_code == 421
+        mes = await api.client.post(
+            "/axes/x/stop",
+            headers={"Origin": "https://mes.example", "Sec-Fetch-Site": "cross-site", **JSON},
+        )
+        assert mes.status_code == 200, mes.text
+        assert mes.headers["access-control-allow-origin"] == "https://mes.example"
+        assert (
+            await api.client.post("/axes/x/stop", headers={"Origin": EVIL, **JSON})
+        ).status_code == 403
+
+
+@pytest.mark.parametrize(
+    ("host", "allowed"),
+    [
+        ("localhost", True), ("LOCALHOST:8233", True), ("app.localhost", True),
+        ("127.0.0.1:80", True), ("127.9.9.9", True), ("[::1]:8233", True), ("localhost.", True),
+        ("evil.example", False), ("localhost.evil.example", False), ("10.0.0.1", False),
+        ("", False), ("[::2]", False), ("0.0.0.0", False),
+    ],
+)  # fmt: skip
+def test_the_open_mode_names_only_loopback(host: str, allowed: bool) -> None:
+    assert HostRule().allows(host) is allowed
+
+
+def test_allowed_hosts_from_the_file_are_checked() -> None:
+    from gateway.service.config import SecuritySettings
+
+    with pytest.raises(ValueError, match="allowed_hosts"):
+        SecuritySettings(allowed_hosts=["http://gw.example/"])
+    assert SecuritySettings(allowed_hosts=["gw.example", "[fe80::1]", "*"]).allowed_hosts
