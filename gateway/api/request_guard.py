@@ -6,7 +6,8 @@ then. Two rules close that door, in every mode (``--no-auth`` too), before anyth
 the API runs (``RequestGuard``, a pure ASGI layer):
 
 * **Host**: the ``Host`` header names the gateway: a loopback name or address (``localhost``,
-  ``*.localhost``, ``127.0.0.1``, ``[::1]``) or one of ``security.allowed_hosts``; any port.
+  ``*.localhost``, ``127.0.0.1``, ``[::1]``), the address the connection came in on, or one
+  of ``security.allowed_hosts``; any port.
   A page served from a name of its own that resolves to the gateway (DNS rebinding) names
   its own host, and is refused ``421`` (``400`` without a ``Host``), reads and the dashboard
   included, and so is a WebSocket upgrade.
@@ -63,6 +64,19 @@ def _is_loopback_name(name: str) -> bool:
         return True
     try:
         return ipaddress.ip_address(name).is_loopback
+    except ValueError:
+        return False
+
+
+def _is_own_address(scope: Scope, authority: str) -> bool:
+    """True when ``authority`` is the address the connection came in on (an address, never
+    a name: a rebound name cannot be one), so ``http://192.0.2.7:8233`` works unconfigured."""
+    server = scope.get("server")
+    if not server:
+        return False
+    try:
+        local = ipaddress.ip_address(str(server[0]))
+        return ipaddress.ip_address(host_name(authority)) == local
     except ValueError:
         return False
 
@@ -195,7 +209,7 @@ class RequestGuard:
         if not host:
             return _Refusal(400, "bad-request", "Bad request", "header.host", host_rule,
                             "the request names no host")  # fmt: skip
-        if not self.hosts.allows(host):
+        if not self.hosts.allows(host) and not _is_own_address(scope, host):
             return _Refusal(
                 421, "misdirected-request", "Misdirected request", "header.host", host_rule,
                 f"{host[:80]!r} is not a name of this gateway",

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from gateway.api.request_guard import HostRule
+from gateway.api.request_guard import HostRule, RequestGuard
 from gateway.service.runtime.simulated import simulated_config
 from tests.api.sim_app import running_app
 
@@ -77,3 +77,19 @@ def test_allowed_hosts_from_the_file_are_checked() -> None:
     with pytest.raises(ValueError, match="allowed_hosts"):
         SecuritySettings(allowed_hosts=["http://gw.example/"])
     assert SecuritySettings(allowed_hosts=["gw.example", "[fe80::1]", "*"]).allowed_hosts
+
+
+@pytest.mark.parametrize(
+    ("host", "status"),
+    [("192.0.2.7:8233", None), ("192.0.2.7", None), ("192.0.2.8:8233", 421),
+     ("gw.example", 421), ("", 400)],
+)  # fmt: skip
+def test_the_address_a_connection_came_in_on_names_the_gateway(
+    host: str, status: int | None
+) -> None:
+    # A gateway bound to every address, reached as http://192.0.2.7:8233 (no name to rebind).
+    guard = RequestGuard(lambda *_: None)  # type: ignore[arg-type, return-value]
+    scope = {"type": "http", "method": "GET", "server": ("192.0.2.7", 8233),
+             "headers": [(b"host", host.encode())] if host else []}  # fmt: skip
+    refusal = guard.refusal(scope)
+    assert (refusal.status if refusal else None) == status
