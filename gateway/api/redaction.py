@@ -54,7 +54,7 @@ def _without_query(record: logging.LogRecord) -> None:
 
 def _clean(record: logging.LogRecord) -> None:
     """Mask secrets in ``record``'s message (formatted with its arguments), in place."""
-    if record.name.startswith("uvicorn") and _UVICORN_WS in str(record.msg):
+    if str(record.name).startswith("uvicorn") and _UVICORN_WS in str(record.msg):
         _without_query(record)
     try:
         message = record.getMessage()

@@ -46,3 +46,9 @@ def test_every_logger_is_redacted_once_installed(caplog: pytest.LogCaptureFixtur
     assert "t0k" not in caplog.text
     assert '"WebSocket /ws" [accepted]' in caplog.text  # uvicorn's line keeps no query
     assert "Bearer ***" in caplog.text
+
+
+def test_a_record_made_without_a_name_is_made_all_the_same() -> None:
+    install_log_redaction()
+    record = logging.makeLogRecord({})  # what logging.config and formatters do
+    assert record.getMessage() == ""
