@@ -29,6 +29,10 @@ from dataclasses import dataclass
 from datetime import UTC, datetime
 from typing import Any
 
+from starlette.types import Scope
+
+from gateway.api.problems import Problem, problem_type
+
 __all__ = [
     "BACKOFF_BASE",
     "BACKOFF_MAX",
@@ -36,6 +40,8 @@ __all__ = [
     "FREE_FAILURES",
     "RECORD_INTERVAL",
     "AuthFailures",
+    "failures_of",
+    "throttled_problem",
 ]
 
 log = logging.getLogger("gateway.security")
@@ -198,3 +204,21 @@ class AuthFailures:
             self.record(entry_record)
         except Exception:  # the audit must never turn a refusal into an error
             log.exception("authentication failures not recorded: %r", entry_record)
+
+
+def failures_of(scope: Scope) -> AuthFailures | None:
+    """The failed-authentication book of the app serving ``scope`` (None: not kept)."""
+    app = scope.get("app")
+    failures = getattr(getattr(app, "state", None), "auth_failures", None)
+    return failures if isinstance(failures, AuthFailures) else None
+
+
+def throttled_problem(wait: float) -> Problem:
+    """The 429 of an address that must wait ``wait`` seconds more."""
+    return Problem(
+        type=problem_type("too-many-failures"),
+        title="Too many failed authentications",
+        status=429,
+        detail=f"too many wrong tokens from this address: try again in {math.ceil(wait)} s "
+        "(the wait doubles with every wrong token after the first few)",
+    )

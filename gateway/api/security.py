@@ -39,7 +39,7 @@ try:  # FastAPI >= 0.16x: included routers are branches, flattened by this
 except ImportError:  # pragma: no cover - older FastAPI
     iter_route_contexts = None
 
-from gateway.api.auth_failures import AuthFailures
+from gateway.api.auth_failures import AuthFailures, failures_of, throttled_problem
 from gateway.api.problems import ApiProblem, Problem, problem_type
 from gateway.service.roles import Role
 
@@ -56,7 +56,6 @@ __all__ = [
     "auth_of_scope",
     "authenticate_websocket",
     "bearer_of_headers",
-    "failures_of",
     "hash_token",
     "install_security",
     "is_loopback",
@@ -192,23 +191,6 @@ def install_security(app: FastAPI, auth: AuthConfig, failures: AuthFailures | No
     app.state.auth_failures = failures
 
 
-def failures_of(scope: Scope) -> AuthFailures | None:
-    """The failed-authentication book of the app serving ``scope`` (None: not kept)."""
-    app = scope.get("app")
-    failures = getattr(getattr(app, "state", None), "auth_failures", None)
-    return failures if isinstance(failures, AuthFailures) else None
-
-
-def _throttled(wait: float) -> Problem:
-    return Problem(
-        type=problem_type("too-many-failures"),
-        title="Too many failed authentications",
-        status=429,
-        detail=f"too many wrong tokens from this address: try again in {math.ceil(wait)} s "
-        "(the wait doubles with every wrong token after the first few)",
-    )
-
-
 def _auth_of(connection: HTTPConnection) -> AuthConfig:
     return auth_of_scope(connection.scope)
 
@@ -259,7 +241,7 @@ class RoleRequirement:
                 # Refused before the token is looked at: a right guess looks like a wrong one.
                 request.state.auth_failed = True  # recorded by AuthFailures, not per request
                 failures.throttled(client, what)
-                raise ApiProblem(_throttled(wait), {"Retry-After": str(math.ceil(wait))})
+                raise ApiProblem(throttled_problem(wait), {"Retry-After": str(math.ceil(wait))})
         principal = auth.authenticate(token, client)
         if principal is None:
             if token is None:

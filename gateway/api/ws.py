@@ -39,12 +39,8 @@ from typing import Any, Protocol
 from fastapi import APIRouter, FastAPI, WebSocket
 from pydantic import ValidationError
 
-from gateway.api.security import (
-    AuthConfig,
-    authenticate_websocket,
-    bearer_of_headers,
-    failures_of,
-)
+from gateway.api.auth_failures import failures_of
+from gateway.api.security import AuthConfig, authenticate_websocket, bearer_of_headers
 from gateway.api.ws_direct import DirectWriter, direct_writer
 from gateway.api.ws_messages import (
     ClientMessage,
