@@ -14,6 +14,7 @@ from websockets.asyncio.client import connect
 from websockets.exceptions import ConnectionClosed
 
 from gateway.api.auth_failures import FREE_FAILURES, AuthFailures
+from gateway.service.runtime.simulated import simulated_config
 from tests.api.sim_app import BASE, DECLARE_JSON, auth, running_app
 from tests.api.test_token_leaks_served import CELL, VIEWER
 from tests.serve_process import TIME_SCALE, serve
@@ -38,9 +39,10 @@ async def test_wrong_tokens_from_one_address_are_made_to_wait(tmp_path: Path) ->
         assert throttled.status_code == 429, throttled.text
         assert throttled.headers["content-type"] == "application/problem+json"
         assert throttled.headers["retry-after"] == "1"
-        # A right guess is not told apart while the address waits.
+        # A right guess is not told apart while the address waits, on the plain read too.
         right = await api.client.post("/axes/x/stop", headers=auth("operator"))
         assert right.status_code == 429
+        assert (await api.client.get("/axes/x", headers=auth("viewer"))).status_code == 429
         # Another address is not concerned.
         other = httpx.ASGITransport(app=api.app, client=("10.1.2.3", 5000))
         async with httpx.AsyncClient(
@@ -137,3 +139,16 @@ async def test_a_websocket_guessing_tokens_is_made_to_wait(tmp_path: Path) -> No
             with pytest.raises(ConnectionClosed):  # the right token waits too
                 await asyncio.wait_for(conn.recv(), 30)
             assert conn.close_code == 4429 and "retry in" in (conn.close_reason or "")
+
+
+async def test_a_closed_page_counts_wrong_tokens_too() -> None:
+    config = simulated_config(("1",))
+    security = config.security.model_copy(update={"open_metrics": False})
+    config = config.model_copy(update={"security": security})
+    async with running_app(("1",), roles=True, config=config) as api:
+        metrics = "http://localhost/metrics"
+        for _ in range(FREE_FAILURES + 1):
+            assert (await api.client.get(metrics, headers=WRONG)).status_code == 401
+        waited = await api.client.get(metrics, headers=auth("viewer"))
+        assert waited.status_code == 429 and waited.headers["retry-after"] == "1"
+        assert (await api.client.get("/axes", headers=auth("viewer"))).status_code == 429
