@@ -181,7 +181,8 @@ class RequestGuard:
             await self.app(scope, receive, send)
             return
         if kind == "websocket":
-            log.warning("WebSocket refused before its handshake: %s", refusal.detail)
+            # uvicorn writes the refused upgrade's line (403); the reason costs a line only at -v.
+            log.debug("WebSocket refused before its handshake: %s", refusal.detail)
             await receive()  # websocket.connect
             # A close before the accept: the server answers the upgrade with HTTP 403.
             await send({"type": "websocket.close", "code": 1008, "reason": refusal.detail})

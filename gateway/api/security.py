@@ -234,7 +234,7 @@ class RoleRequirement:
         token = credentials.credentials if credentials is not None else None
         client = _client(request)
         failures = None if auth.no_auth else failures_of(request.scope)
-        what = f"{request.method} {request.url.path}"
+        what = f"{request.method} {request.scope['path']}"  # only for a record: cheap
         if failures is not None:
             wait = failures.retry_after(client)
             if wait is not None:
