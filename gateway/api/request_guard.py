@@ -13,7 +13,7 @@ the API runs (``RequestGuard``, a pure ASGI layer):
   included, and so is a WebSocket upgrade.
 * **Origin**: a request that acts (POST, PUT, PATCH, DELETE) and a WebSocket upgrade are
   refused ``403`` when the browser says another site sent it: an ``Origin`` that is not the
-  gateway's own (scheme, host and port of the ``Host`` it asked) nor one of
+  gateway's own (the name and port of the ``Host`` it asked) nor one of
   ``security.cors_origins``, ``Origin: null`` (a sandboxed frame, a file), or
   ``Sec-Fetch-Site`` other than ``same-origin`` / ``none`` without an allowed ``Origin``.
   Clients that are not browsers send neither header and are not concerned.
@@ -133,21 +133,27 @@ class OriginRule:
             return None
         if key is None:
             return f"Origin {origin[:80]!r} is no site of its own (a sandboxed frame or file)"
-        if key != self._own(scope, headers.get(b"host", "")):
+        if not _is_own_origin(key, headers.get(b"host", "")):
             return f"Origin {origin[:80]} is another site than the gateway's"
         if site and site not in _OWN_SITE:
             return f"Sec-Fetch-Site: {site} (a page of another site sent it)"
         return None
 
-    @staticmethod
-    def _own(scope: Scope, host: str) -> tuple[str, str, int]:
-        scheme = str(scope.get("scheme", "http"))
-        parts = urlsplit(f"//{host.strip().lower()}")
-        try:
-            port = parts.port
-        except ValueError:
-            port = -1
-        return _origin_key(scheme, parts.hostname or "", port)
+
+def _is_own_origin(origin: tuple[str, str, int], host: str) -> bool:
+    """True when ``origin`` is the gateway's own page as the ``Host`` it asked names it: the
+    same name, and the same port. A ``Host`` without a port was reached on a default port
+    (80, or 443 through a TLS proxy that passes the client's ``Host``), so then the page's
+    port is 80 or 443; the scheme is not compared, since behind such a proxy the gateway
+    itself speaks plain HTTP."""
+    parts = urlsplit(f"//{host.strip().lower()}")
+    try:
+        port = parts.port
+    except ValueError:
+        return False
+    if (parts.hostname or "") != origin[1]:
+        return False
+    return origin[2] == port if port is not None else origin[2] in (80, 443)
 
 
 @dataclass(frozen=True)

@@ -93,3 +93,33 @@ def test_the_address_a_connection_came_in_on_names_the_gateway(
              "headers": [(b"host", host.encode())] if host else []}  # fmt: skip
     refusal = guard.refusal(scope)
     assert (refusal.status if refusal else None) == status
+
+
+@pytest.mark.parametrize(
+    ("host", "origin", "site", "status"),
+    [
+        ("localhost:8233", "http://localhost:8233", "same-origin", None),
+        ("127.0.0.1:8233", "http://127.0.0.1:8233", None, None),
+        ("[::1]:8233", "http://[::1]:8233", None, None),
+        ("localhost:8233", "http://localhost:3000", "same-site", 403),  # a local dev server
+        ("localhost:8233", "http://127.0.0.1:8233", None, 403),  # another name: another site
+        ("localhost:8233", "null", None, 403),
+        ("localhost:8233", None, "cross-site", 403),
+        ("localhost:8233", None, "none", None),  # typed by the user
+        ("localhost:8233", None, None, None),  # not a browser
+        # Behind a TLS proxy passing the client's Host (no port): the page is on 443.
+        ("gw.plant.example", "https://gw.plant.example", "same-origin", None),
+        ("gw.plant.example", "https://gw.plant.example:8443", None, 403),
+    ],
+)  # fmt: skip
+def test_acts_come_from_the_gateways_own_pages(
+    host: str, origin: str | None, site: str | None, status: int | None
+) -> None:
+    guard = RequestGuard(lambda *_: None, allowed_hosts=["gw.plant.example"])  # type: ignore[arg-type, return-value]
+    headers = [(b"host", host.encode())]
+    headers += [(b"origin", origin.encode())] if origin else []
+    headers += [(b"sec-fetch-site", site.encode())] if site else []
+    scope = {"type": "http", "method": "POST", "scheme": "http", "headers": headers}
+    refusal = guard.refusal(scope)
+    assert (refusal.status if refusal else None) == status, refusal
+    assert guard.refusal({**scope, "method": "GET"}) is None  # reads are not concerned
