@@ -104,6 +104,7 @@ def create_app(gateway: Runtime, *, auth: AuthConfig) -> FastAPI:
 
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
+        await operations.restore()  # before the loops: what the last process left unended
         await gateway.start()
         try:
             yield
@@ -158,7 +159,7 @@ def create_app(gateway: Runtime, *, auth: AuthConfig) -> FastAPI:
     install_problem_handlers(app)
     failures = AuthFailures(audit.record)
     install_security(app, auth, failures)
-    install_idempotency(app)
+    install_idempotency(app, gateway.store)
     app.add_middleware(BodyGate)
     install_audit(app, audit)
     # Outside the audit (a request to another host or from another site never reached the
