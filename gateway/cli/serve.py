@@ -316,6 +316,7 @@ async def _serve(
             log_level="debug" if args.verbose else "info",
             log_config=None,  # uvicorn's lines go through the one handler (text or JSON)
             access_log=False,  # written by the app, cheaply (gateway.api.access_log)
+            server_header=False,  # no "Server: uvicorn": the software is nobody's business
             **uvicorn_ws_options(config.ws),
             **uvicorn_connection_options(config.connections),
             timeout_graceful_shutdown=10,

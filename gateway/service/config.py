@@ -186,6 +186,13 @@ class SecuritySettings(_Strict):
     open_metrics: bool = True
     #: ``/api/v1/docs`` and ``/api/v1/openapi.json`` without a token; False: any token
     open_docs: bool = True
+    #: names (or addresses) the ``Host`` header may give besides loopback ones (``localhost``,
+    #: ``127.0.0.1``, ``[::1]``): what clients type to reach the gateway (``gw.plant.example``).
+    #: Any other is refused (421), so a hostile page cannot reach the API through a name of
+    #: its own (DNS rebinding). ``"*"`` accepts any name (not advised).
+    allowed_hosts: list[
+        Annotated[str, Field(pattern=r"^(\*|[A-Za-z0-9_.-]{1,253}|\[[0-9A-Fa-f:.]{2,45}\])$")]
+    ] = Field(default_factory=list)
 
     @model_validator(mode="after")
     def _unique(self) -> Self:

@@ -41,7 +41,7 @@ from tests.state_waits import until_state
 
 #: Device seconds per real second in the API tests.
 SCALE = 50.0
-BASE = "http://gateway.test/api/v1"
+BASE = "http://localhost/api/v1"
 #: Real seconds a test waits for something the gateway does on its own (polls, a motion end).
 WAIT = 20.0
 #: The tokens of ``running_app(roles=True)``: name -> (token, role); one per role, named
@@ -53,6 +53,17 @@ TOKENS: dict[str, tuple[str, Role]] = {
     "alice": ("tok-alice", Role.OPERATOR),
     "bob": ("tok-bob", Role.OPERATOR),
 }
+
+
+async def declare_json(request: httpx.Request) -> None:
+    """Declare JSON on every request that acts and declares nothing, as the dashboard does
+    (the gateway refuses a POST, PUT, PATCH or DELETE declared otherwise, bodyless too)."""
+    if request.method in ("POST", "PUT", "PATCH", "DELETE"):
+        request.headers.setdefault("Content-Type", "application/json")
+
+
+#: ``event_hooks=`` of an httpx client that declares JSON like the dashboard
+DECLARE_JSON: dict[str, list[Any]] = {"request": [declare_json]}
 
 
 def auth(name: str | Role) -> dict[str, str]:
@@ -178,7 +189,7 @@ async def running_app(
         async with app.router.lifespan_context(app):
             transport = httpx.ASGITransport(app=app)
             async with httpx.AsyncClient(
-                transport=transport, base_url=BASE, timeout=WAIT
+                transport=transport, base_url=BASE, timeout=WAIT, event_hooks=DECLARE_JSON
             ) as client:
                 api = Api(app, gateway, sim, client, events)
                 await api.identified()

@@ -115,7 +115,7 @@ async def counting() -> AsyncIterator[tuple[httpx.AsyncClient, list[int], Clock]
         app, store, capacity=2, ttl=60, clock=clock
     )
     transport = httpx.ASGITransport(app=app)
-    async with httpx.AsyncClient(transport=transport, base_url="http://t") as client:
+    async with httpx.AsyncClient(transport=transport, base_url="http://localhost") as client:
         yield client, calls, clock
     await store.close()
 
