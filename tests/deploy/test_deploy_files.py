@@ -52,6 +52,13 @@ HARDENING = {
 }
 
 
+#: systemd.resource-control(5) DeviceAllow=: the device groups of /proc/devices the gateway's
+#: ports belong to (USB-serial, CDC-ACM, on-board), read-write.
+SERIAL_CLASSES = ["char-ttyUSB rw", "char-ttyACM rw", "char-ttyS rw"]
+#: The kernel modules that register those groups (ttyS is built in).
+CLASS_DRIVERS = ("usbserial", "cdc_acm")
+
+
 def _tool(name: str, package: str) -> str:
     found = shutil.which(name) or shutil.which(name, path="/usr/sbin:/sbin:/usr/bin")
     assert found, f"{name} is not installed: `apt-get install {package}` (`make test` does it)"
@@ -81,10 +88,26 @@ def test_the_unit_has_every_hardening_directive() -> None:
     directives = _directives(UNIT.read_text())
     for key, value in HARDENING.items():
         assert value in directives.get(key, []), f"{key}={value} missing from {UNIT.name}"
-    # One DeviceAllow= per configured port, read-write, through the udev names.
-    assert directives["DeviceAllow"] == ["/dev/rc233-loop1 rw"]
+    # Serial ports by device class, read-write (see the next test for why not by path).
+    assert directives["DeviceAllow"] == SERIAL_CLASSES
     # The service logs JSON lines to the journal and is ready when it serves HTTP.
     assert "--log-format json" in directives["ExecStart"][0]
+
+
+def test_an_adapter_plugged_in_after_the_start_is_not_fenced_off() -> None:
+    """systemd.resource-control(5): a ``/dev/...`` path in DeviceAllow= is turned into its
+    major/minor when the unit starts; a loop's adapter missing then (the gateway starts that
+    loop down and waits for the device) would stay blocked once plugged in. A device class
+    is matched by major number, for every current and future device of its driver, and is
+    resolvable at start only when that driver is loaded: the unit loads it first."""
+    directives = _directives(UNIT.read_text())
+    allowed = directives["DeviceAllow"]
+    assert not [a for a in allowed if a.startswith("/dev/")], allowed
+    assert all(a.startswith("char-tty") and a.endswith(" rw") for a in allowed), allowed
+    for driver in CLASS_DRIVERS:
+        unit = f"modprobe@{driver}.service"
+        assert any(unit in w.split() for w in directives.get("Wants", [])), f"Wants= {unit}"
+        assert any(unit in a.split() for a in directives.get("After", [])), f"After= {unit}"
 
 
 def test_the_unit_gives_the_connections_and_their_reserve_their_descriptors() -> None:
@@ -151,8 +174,8 @@ def test_the_udev_rules_name_the_ports_the_unit_allows() -> None:
         assert keys["GROUP"] == ("=", "dialout") and keys["MODE"] == ("=", "0660")
         symlinks.append(keys["SYMLINK"][1])
     assert symlinks == ["rc233-loop1", "rc233-loop2"]
-    allowed = _directives(UNIT.read_text())["DeviceAllow"]
-    assert all(f"/dev/{s} rw" in allowed or s != "rc233-loop1" for s in symlinks)
+    # Both rules name USB adapters (ATTRS{idVendor}): the ttyUSB class the unit allows.
+    assert "char-ttyUSB rw" in _directives(UNIT.read_text())["DeviceAllow"]
 
 
 def test_the_ftdi_rule_sets_the_latency_timer_to_one_ms_when_an_adapter_appears() -> None:
