@@ -85,6 +85,8 @@ def create_app(gateway: Runtime, *, auth: AuthConfig) -> FastAPI:
     leases = Leases()
     operations = Operations(gateway)
     operations.on_resolved(lambda op: audit.record(resolution_entry(op, API_PREFIX)))
+    # A jog the last process left running, stopped by this one at start: no request made it.
+    operations.on_restart_stop(lambda stop: audit.record(stop.audit_entry(API_PREFIX)))
     # An admin's change of the control state is its request's entry; a key switch's has none.
     def audit_key_switch(change: ControlChange) -> None:
         if change.source == "key_switch":

@@ -9,18 +9,28 @@ against the operation's end and its start:
 * at the end (the target, or the pre-read plus the step) -> ``done``;
 * where it started (the pre-read) -> ``failed``, outcome ``not_done``;
 * a limit error or emergency stop in the status -> ``failed`` with that error;
-* anything else, or nothing to compare with (a jog; a relative move whose pre-read was not
+* anything else, or nothing to compare with (a relative move whose pre-read was not
   recorded), or no answer within ``RESTART_READ_BACK`` host seconds -> ``unknown`` with why.
+
+A jog left in flight is a hold-to-run motion whose holder died with the process: it is first
+stopped (``SS``, ``restart_stop``), then read back once its motor stands still:
+
+* stopped, no error in the status -> ``failed``, kind ``restart``, outcome ``not_done`` (it was
+  ended by the gateway, not by its holder), the position where it stood;
+* a limit error or emergency stop in the status -> ``failed`` with that error (it ran into it);
+* the stop not taken within ``RESTART_READ_BACK`` -> ``unknown``, saying it may still run.
 """
 
 from __future__ import annotations
 
 import asyncio
 import logging
+from collections.abc import Callable
 from typing import Any
 
 from gateway.protocol import commands as cmd
 from gateway.protocol.reply_values import StatusFlags
+from gateway.service.operations.restart_stop import HOLD_TO_RUN, RestartStop, stop_left_running
 from gateway.service.operations.types import Operation, OperationError, OperationState
 from gateway.service.runtime.runtime import Runtime
 from gateway.service.topology import Topology
@@ -98,10 +108,26 @@ def from_record(record: dict[str, Any], topology: Topology) -> Operation | None:
     return op
 
 
-async def read_back_after_restart(gateway: Runtime, op: Operation) -> Verdict:
-    """The verdict on ``op``, which had not ended when the gateway stopped (see the module)."""
+async def read_back_after_restart(
+    gateway: Runtime, op: Operation, on_stop: Callable[[RestartStop], object] | None = None
+) -> Verdict:
+    """The verdict on ``op``, which had not ended when the gateway stopped (see the module);
+    a hold-to-run motion is stopped first, and ``on_stop`` told what the stop did."""
     loop = asyncio.get_running_loop()
     give_up = loop.time() + RESTART_READ_BACK
+    stop: RestartStop | None = None
+    if op.kind in HOLD_TO_RUN:
+        stop = await stop_left_running(gateway, op, give_up)
+        if on_stop is not None:
+            on_stop(stop)
+        if not stop.sent:
+            detail = (
+                f"the gateway restarted while the {op.kind} was {op.state.value}; its holder is "
+                f"gone, and its stop ({stop.command}, §10 {stop.command}) was not taken within "
+                f"{RESTART_READ_BACK:.0f} s ({stop.outcome.value}: {stop.error}): the axis may "
+                "still be moving"
+            )
+            return OperationState.UNKNOWN, _error("Outcome unknown", detail, "unknown"), None
     pause = 0.1
     last = "the loop did not come up"
     while True:
@@ -112,7 +138,9 @@ async def read_back_after_restart(gateway: Runtime, op: Operation) -> Verdict:
             flags, position = (r.value for r in result.results)
             if isinstance(flags, StatusFlags) and _pulses(position):
                 assert isinstance(position, int)
-                if not flags.moving or op.expected_end is None:
+                if stop is not None and not flags.moving:
+                    return _judge_stopped(op, stop, flags, position)
+                if stop is None and (not flags.moving or op.expected_end is None):
                     return _judge(op, flags, position)
                 last = f"the motor was still turning at {position} pulses"
             else:
@@ -172,6 +200,24 @@ def _judge(op: Operation, flags: StatusFlags, position: int) -> Verdict:
     start = "not recorded" if before is None else str(before)
     detail = f"{seen}: neither its end {expected} nor its start ({start})"
     return OperationState.UNKNOWN, _error("Outcome unknown", detail, "unknown"), position
+
+
+def _judge_stopped(op: Operation, stop: RestartStop, flags: StatusFlags, position: int) -> Verdict:
+    sent = " ".join(stop.frames) or stop.command
+    seen = (
+        f"the gateway restarted while the {op.kind} was {op.state.value}; its holder was gone, "
+        f"so the gateway stopped it ({sent}, §10 {stop.command}); read back then: {position} "
+        "pulses"
+    )
+    if flags.limit_error:
+        detail = f'{seen}; a limit sensor or a step-out error had stopped it (§10 "" bit 1)'
+        error = OperationError.of("limit_error", "Limit error", detail)
+        return OperationState.FAILED, error, position
+    if flags.emergency_stop:
+        detail = f'{seen}; the EMS input had stopped it (§10 "" bit 2)'
+        error = OperationError.of("emergency_stop", "Emergency stop", detail)
+        return OperationState.FAILED, error, position
+    return OperationState.FAILED, _error("Stopped at restart", seen, "not_done"), position
 
 
 def _error(title: str, detail: str, outcome: str) -> OperationError:

@@ -31,6 +31,7 @@ from gateway.protocol.models import Command
 from gateway.service.events import EventKind, ServiceEvent
 from gateway.service.operations.durable import from_record, read_back_after_restart, to_record
 from gateway.service.operations.motion_watch import MotionWatch
+from gateway.service.operations.restart_stop import RestartStop
 from gateway.service.operations.types import (
     FINAL,
     Operation,
@@ -66,6 +67,7 @@ class Operations:
         self._active: dict[tuple[str, str], Operation] = {}
         self._ids = itertools.count(gateway.store.counters.get(OPERATION_COUNTER, 0) + 1)
         self._resolved: list[Callable[[Operation], object]] = []
+        self._restart_stops: list[Callable[[RestartStop], object]] = []
         self._watch = MotionWatch(gateway, self)
         #: per controller, the operation left unended by the last process, being read back
         self._restored: dict[tuple[str, str], Operation] = {}
@@ -96,7 +98,9 @@ class Operations:
         self._ids = itertools.count(store.counters.get(OPERATION_COUNTER, 0) + 1)
 
     async def _judge_restored(self, op: Operation) -> None:
-        state, error, position = await read_back_after_restart(self.gateway, op)
+        state, error, position = await read_back_after_restart(
+            self.gateway, op, lambda stop: _tell(self._restart_stops, stop)
+        )
         self._restored.pop((op.axis.loop, op.axis.body), None)
         op.position = position if position is not None else op.position
         # Not ``end``: the read-back that an ``unknown`` end starts has just been done here.
@@ -307,8 +311,6 @@ class Operations:
             op.stop_requested = True
         return op
 
-    # ------------------------------------------------------------------ following
-
     # ------------------------------------------------------------------ bookkeeping
 
     def _store(self, op: Operation) -> None:
@@ -372,6 +374,10 @@ class Operations:
         """Call ``callback(op)`` whenever an ``unknown`` operation is resolved (the audit)."""
         self._resolved.append(callback)
 
+    def on_restart_stop(self, callback: Callable[[RestartStop], object]) -> None:
+        """Call ``callback(stop)`` for each jog left running by the last process (the audit)."""
+        self._restart_stops.append(callback)
+
     def _save(self, op: Operation) -> None:
         """Queue ``op`` as it is now for the state store (the run's own write was awaited)."""
         record = to_record(op)
@@ -382,3 +388,11 @@ class Operations:
         self.gateway.events.publish(
             ServiceEvent(EventKind.OPERATION, f"axis:{op.axis.id}", time.time(), data)
         )
+
+
+def _tell(listeners: list[Callable[[RestartStop], object]], stop: RestartStop) -> None:
+    for callback in list(listeners):
+        try:
+            callback(stop)
+        except Exception:  # one bad listener must not stop the others
+            log.exception("operation %s: restart-stop listener failed", stop.operation.id)

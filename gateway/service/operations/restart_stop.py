@@ -1,0 +1,146 @@
+"""The stop of a hold-to-run motion that the last gateway process left running.
+
+A jog (``7``/``8``, §10 7/8; and a jog toward a soft limit, a move to it at the jog speed)
+runs until a stop or a limit sensor: it is moving only because someone holds it (the
+dashboard's hold-to-jog, a client that ends it with a stop). When the gateway dies, its holder
+is gone with it, and the axis would go on alone, possibly into a limit. So at start, once the
+axis's loop is up, the gateway stops every jog left in flight with ``SS`` (§10 SS: down to Low
+speed, then stop; the stop an operator's release sends, gentler on the mechanics than ``S``).
+``S``/``SS`` act on the selected motor, which is the moving one (``F`` is refused while a motor
+moves, §10 F), so no selection is sent first.
+
+What is *not* stopped here: an origin search (``home``) has its own end (the origin, or a limit
+sensor, §10 0R), and its read-back waits for it; a user program (``G``) is no operation of the
+gateway and is left to run (stop it with ``POST /controllers/{id}/program/stop``).
+
+``RestartStop`` is what the attempt did; it goes to the log and, through
+``Operations.on_restart_stop``, to the audit log (``audit_entry``).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import time
+from dataclasses import dataclass, field
+from datetime import UTC, datetime
+from typing import Any
+
+from gateway.bus.events import LinkUp
+from gateway.bus.requests import LoopDown, Outcome
+from gateway.bus.scheduler import LinkState
+from gateway.protocol import commands as cmd
+from gateway.service.operations.types import Operation, frames_of
+from gateway.service.runtime.runtime import Runtime
+
+__all__ = ["HOLD_TO_RUN", "RestartStop", "stop_left_running"]
+
+log = logging.getLogger("gateway.service")
+
+#: Operation kinds that run only while held: stopped at restart when left in flight.
+HOLD_TO_RUN = frozenset({"jog"})
+#: Host seconds between two attempts at the stop while the loop is up but the send failed.
+RETRY_PAUSE = 0.2
+
+
+@dataclass
+class RestartStop:
+    """What the stop of ``operation``, sent at restart, did."""
+
+    operation: Operation
+    command: str
+    outcome: Outcome = Outcome.NOT_DONE
+    frames: list[str] = field(default_factory=list)
+    error: str | None = None
+    time: float = field(default_factory=time.time)
+
+    @property
+    def sent(self) -> bool:
+        """True when the controller took the stop ('>')."""
+        return self.outcome is Outcome.DONE
+
+    def audit_entry(self, prefix: str) -> dict[str, Any]:
+        """The audit entry of the stop: no request made it, the gateway did at its start."""
+        op = self.operation
+        stamp = datetime.fromtimestamp(self.time, UTC).isoformat(timespec="milliseconds")
+        return {
+            "time": stamp.replace("+00:00", "Z"),
+            "token": op.holder,
+            "method": "STOP",
+            "path": f"{prefix}/controllers/{op.axis.controller_id}/stop",
+            "event": "restart_stop",
+            "bytes_sent": list(self.frames),
+            "result": self.outcome.value,
+            "error": self.error,
+            "operation": op.id,
+        }
+
+
+async def stop_left_running(gateway: Runtime, op: Operation, give_up: float) -> RestartStop:
+    """Send ``SS`` to the controller of ``op`` as soon as its loop is up, trying again until
+    the loop time ``give_up``; what was sent and how it went."""
+    command = cmd.slow_stop()
+    stop = RestartStop(op, command.wire())
+    scheduler = gateway.scheduler(op.axis.loop)
+    loop = asyncio.get_running_loop()
+    while True:
+        if scheduler.state is not LinkState.UP:
+            await _link_up(gateway, op.axis.loop, give_up - loop.time())
+        try:
+            result = await scheduler.stop(op.axis.body, command)
+        except LoopDown as exc:
+            stop.outcome = Outcome.UNKNOWN if exc.in_flight else Outcome.NOT_DONE
+            stop.error = str(exc)
+        except Exception as exc:  # expired, refused before the line: nothing was sent
+            stop.outcome, stop.error = Outcome.NOT_DONE, str(exc) or type(exc).__name__
+        else:
+            stop.outcome = result.outcome
+            stop.frames = frames_of(result, op.prefix)
+            stop.error = None if result.outcome is Outcome.DONE else _why(result.outcome)
+        stop.time = time.time()
+        # A refusal ('>@') is the controller's answer: sending it again would change nothing.
+        refused = stop.frames and stop.outcome is Outcome.NOT_DONE
+        if stop.sent or refused or loop.time() >= give_up:
+            break
+        await asyncio.sleep(RETRY_PAUSE)  # a back-off between attempts, not a synchronisation
+    _log(stop)
+    return stop
+
+
+async def _link_up(gateway: Runtime, name: str, timeout: float) -> None:
+    """Until loop ``name`` is up (woken by its ``LinkUp``), at most ``timeout`` seconds."""
+    scheduler = gateway.scheduler(name)
+    up = asyncio.Event()
+
+    def seen(event: object) -> None:
+        if isinstance(event, LinkUp):
+            up.set()
+
+    unsubscribe = scheduler.events.subscribe(seen)
+    try:
+        if scheduler.state is not LinkState.UP:
+            await asyncio.wait_for(up.wait(), max(timeout, 0.0))
+    except TimeoutError:
+        pass  # the attempt after this fails with the loop's own reason
+    finally:
+        unsubscribe()
+
+
+def _why(outcome: Outcome) -> str:
+    if outcome is Outcome.NOT_DONE:
+        return "the controller refused the stop"
+    return "the reply to the stop was lost"
+
+
+def _log(stop: RestartStop) -> None:
+    op = stop.operation
+    if stop.sent:
+        log.warning(
+            "operation %s: the %s on axis %s was left running by the last process; "
+            "stopped it: %s", op.id, op.kind, op.axis.id, " ".join(stop.frames),
+        )  # fmt: skip
+    else:
+        log.error(
+            "operation %s: the %s on axis %s was left running by the last process and could "
+            "not be stopped (%s): %s", op.id, op.kind, op.axis.id, stop.outcome.value, stop.error,
+        )  # fmt: skip
