@@ -16,7 +16,8 @@ A jog left in flight is a hold-to-run motion whose holder died with the process:
 stopped (``SS``, ``restart_stop``), then read back once its motor stands still:
 
 * stopped, no error in the status -> ``failed``, kind ``restart``, outcome ``not_done`` (it was
-  ended by the gateway, not by its holder), the position where it stood;
+  ended by the gateway, not by its holder), the position where it stood; a jog toward a soft
+  limit (a move to it) found at that limit -> ``done``;
 * a limit error or emergency stop in the status -> ``failed`` with that error (it ran into it);
 * the stop not taken within ``RESTART_READ_BACK`` -> ``unknown``, saying it may still run.
 """
@@ -217,6 +218,9 @@ def _judge_stopped(op: Operation, stop: RestartStop, flags: StatusFlags, positio
         detail = f'{seen}; the EMS input had stopped it (§10 "" bit 2)'
         error = OperationError.of("emergency_stop", "Emergency stop", detail)
         return OperationState.FAILED, error, position
+    if op.target is not None and position == op.target:
+        # A jog toward a soft limit is a move to it: it had arrived before the stop.
+        return OperationState.DONE, None, position
     return OperationState.FAILED, _error("Stopped at restart", seen, "not_done"), position
 
 
