@@ -80,15 +80,48 @@ async def test_a_move_that_stopped_elsewhere_is_unknown_with_what_was_seen(
         assert "0 pulses" in op.error.detail and "neither its end 2000" in op.error.detail
 
 
-async def test_a_jog_is_unknown_there_is_no_end_to_compare(tmp_path: Path) -> None:
+async def test_a_jog_left_in_flight_is_stopped_with_ss_and_failed_where_it_stood(
+    tmp_path: Path,
+) -> None:
     store = await _left_behind(
         tmp_path, 5, kind="jog", request={"direction": "cw", "speed": "low"},
-        target=None, state=OperationState.MOVING,
+        target=None, state=OperationState.MOVING, frames=["$17"],
     )  # fmt: skip
     async with running_app(store=store) as api:
         op = await api.operations.wait("op-5-00000001", WAIT)
-        assert op.state is OperationState.UNKNOWN
-        assert op.error is not None and "a jog has no end" in op.error.detail
+        assert api.heard().count("SS") == 1 and "S" not in api.heard()  # §10 SS, not S
+        assert op.state is OperationState.FAILED and op.position == api.position() == 0
+        assert op.error is not None and op.error.kind == "restart"
+        assert op.error.outcome == "not_done" and "$1SS" in op.error.detail
+        entries = json_of(await api.client.get("/audit"))["entries"]
+        stops = [e for e in entries if e.get("event") == "restart_stop"]
+        assert [(s["bytes_sent"], s["result"], s["token"]) for s in stops] == [
+            (["$1SS"], "done", "mes")
+        ]
+
+
+async def test_a_jog_to_a_soft_limit_found_at_it_is_done(tmp_path: Path) -> None:
+    # A jog toward a soft limit is a move to it (target = the limit): arrived before the stop.
+    store = await _left_behind(
+        tmp_path, 6, kind="jog", request={"direction": "ccw", "speed": "low"},
+        target=0, state=OperationState.MOVING,
+    )  # fmt: skip
+    async with running_app(store=store) as api:
+        op = await api.operations.wait("op-6-00000001", WAIT)
+        assert api.heard().count("SS") == 1
+        assert op.state is OperationState.DONE and op.position == 0 and op.error is None
+
+
+async def test_a_home_left_in_flight_is_not_stopped(tmp_path: Path) -> None:
+    # An origin search ends by itself (the origin, or a limit sensor): it is only judged.
+    store = await _left_behind(
+        tmp_path, 8, kind="home", request={"method": "0R"}, target=0,
+        state=OperationState.MOVING,
+    )  # fmt: skip
+    async with running_app(store=store) as api:
+        op = await api.operations.wait("op-8-00000001", WAIT)
+        assert op.state is OperationState.DONE and op.position == 0  # the origin, its end
+        assert "SS" not in api.heard() and "S" not in api.heard()
 
 
 async def test_a_motion_that_cannot_be_recorded_is_refused_and_not_sent() -> None:
