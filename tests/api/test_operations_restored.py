@@ -5,6 +5,7 @@ refused before it is sent."""
 from __future__ import annotations
 
 import asyncio
+import logging
 import sqlite3
 import threading
 from pathlib import Path
@@ -12,6 +13,7 @@ from typing import Any
 
 import pytest
 
+from gateway.service.operations import durable
 from gateway.service.operations.durable import to_record
 from gateway.service.operations.types import Operation, OperationState
 from gateway.service.runtime.simulated import simulated_config
@@ -110,6 +112,27 @@ async def test_a_jog_to_a_soft_limit_found_at_it_is_done(tmp_path: Path) -> None
         op = await api.operations.wait("op-6-00000001", WAIT)
         assert api.heard().count("SS") == 1
         assert op.state is OperationState.DONE and op.position == 0 and op.error is None
+
+
+async def test_a_jog_whose_stop_is_never_answered_is_unknown_and_may_still_move(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    # Controller 3 is configured but silent (not on the simulated loop): the stop is tried
+    # until the read-back gives up (shortened here), and nobody claims the axis stopped.
+    monkeypatch.setattr(durable, "RESTART_READ_BACK", 1.0)
+    store = await _left_behind(
+        tmp_path, 9, axis="conveyor", kind="jog", request={"direction": "cw", "speed": "low"},
+        target=None, state=OperationState.MOVING,
+    )  # fmt: skip
+    caplog.set_level(logging.ERROR, "gateway.service")
+    async with running_app(("1", "2"), config=simulated_config(), store=store) as api:
+        op = await api.operations.wait("op-9-00000001", WAIT)
+        assert op.state is OperationState.UNKNOWN and op.position is None
+        assert op.error is not None and "may still be moving" in op.error.detail
+        entries = json_of(await api.client.get("/audit"))["entries"]
+        stops = [e for e in entries if e.get("event") == "restart_stop"]
+        assert len(stops) == 1 and stops[0]["result"] != "done" and stops[0]["error"], stops
+    assert "could not be stopped" in caplog.text, caplog.text
 
 
 async def test_a_home_left_in_flight_is_not_stopped(tmp_path: Path) -> None:

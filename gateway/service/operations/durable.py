@@ -124,9 +124,8 @@ async def read_back_after_restart(
         if not stop.sent:
             detail = (
                 f"the gateway restarted while the {op.kind} was {op.state.value}; its holder is "
-                f"gone, and its stop ({stop.command}, §10 {stop.command}) was not taken within "
-                f"{RESTART_READ_BACK:.0f} s ({stop.outcome.value}: {stop.error}): the axis may "
-                "still be moving"
+                f"gone, and its stop ({stop.command}, §10 {stop.command}) did not take effect "
+                f"({stop.outcome.value}: {stop.error}): the axis may still be moving"
             )
             return OperationState.UNKNOWN, _error("Outcome unknown", detail, "unknown"), None
     pause = 0.1
@@ -168,12 +167,8 @@ def _judge(op: Operation, flags: StatusFlags, position: int) -> Verdict:
         f"the gateway restarted while the {op.kind} was {op.state.value}; read back then: "
         f"{position} pulses"
     )
-    if expected is None:
-        why = (
-            "a jog has no end to compare it with"
-            if op.kind == "jog"
-            else "the position before it was not recorded"
-        )
+    if expected is None:  # a relative move whose pre-read was not recorded (jogs: stopped)
+        why = "the position before it was not recorded"
         return (
             OperationState.UNKNOWN,
             _error("Outcome unknown", f"{seen}; {why}", "unknown"),

@@ -39,8 +39,11 @@ log = logging.getLogger("gateway.service")
 
 #: Operation kinds that run only while held: stopped at restart when left in flight.
 HOLD_TO_RUN = frozenset({"jog"})
-#: Host seconds between two attempts at the stop while the loop is up but the send failed.
+#: Host seconds between the first two attempts at the stop while the loop is up but the stop
+#: was lost; doubled after each, up to ``RETRY_PAUSE_MAX`` (a silent controller must not keep
+#: its loop busy with stops for the whole read-back).
 RETRY_PAUSE = 0.2
+RETRY_PAUSE_MAX = 2.0
 
 
 @dataclass
@@ -83,6 +86,7 @@ async def stop_left_running(gateway: Runtime, op: Operation, give_up: float) -> 
     stop = RestartStop(op, command.wire())
     scheduler = gateway.scheduler(op.axis.loop)
     loop = asyncio.get_running_loop()
+    pause = RETRY_PAUSE
     while True:
         if scheduler.state is not LinkState.UP:
             await _link_up(gateway, op.axis.loop, give_up - loop.time())
@@ -102,7 +106,8 @@ async def stop_left_running(gateway: Runtime, op: Operation, give_up: float) -> 
         refused = stop.frames and stop.outcome is Outcome.NOT_DONE
         if stop.sent or refused or loop.time() >= give_up:
             break
-        await asyncio.sleep(RETRY_PAUSE)  # a back-off between attempts, not a synchronisation
+        await asyncio.sleep(pause)  # a back-off between attempts, not a synchronisation
+        pause = min(pause * 2, RETRY_PAUSE_MAX)
     _log(stop)
     return stop
 
