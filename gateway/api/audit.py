@@ -315,6 +315,7 @@ async def read_audit(
     """The audit log (admin): the newest ``limit`` entries, or the first after ``since``."""
     audit: AuditLog = request.app.state.audit
     seq, after = _since(since)
+    await audit.flush()  # outcomes still queued are written first: the page shows them
     return AuditPage(
         entries=[AuditEntry(**e) for e in audit.entries(limit=limit, since=seq, after=after)],
         last_seq=audit.last_seq,
