@@ -77,32 +77,36 @@ def _entries(path: Path) -> list[dict[str, Any]]:
 
 async def test_a_move_killed_mid_way_is_in_the_file_and_the_sequence_goes_on(tmp_path: Path):
     audit = tmp_path / "audit.jsonl"
-    async with gateway_process(tmp_path, audit) as (process, url):
-        async with httpx.AsyncClient(base_url=url + "/api/v1", timeout=WAIT) as client:
-            move = asyncio.create_task(
-                client.post("/axes/x/move?wait=true", json={"position": FAR, "unit": "pulse"})
-            )
+    async with (
+        gateway_process(tmp_path, audit) as (process, url),
+        httpx.AsyncClient(base_url=url + "/api/v1", timeout=WAIT) as client,
+    ):
+        move = asyncio.create_task(
+            client.post("/axes/x/move?wait=true", json={"position": FAR, "unit": "pulse"})
+        )
 
-            async def moving() -> bool:
-                state = (await client.get("/axes/x")).json()
-                return bool(state.get("moving")) or state.get("state") == "moving"
+        async def moving() -> bool:
+            state = (await client.get("/axes/x")).json()
+            return bool(state.get("moving")) or state.get("state") == "moving"
 
-            await _until(moving, "the axis moves")
-            process.send_signal(signal.SIGKILL)  # no shutdown: nothing is flushed at exit
-            await process.wait()
-            move.cancel()
-            await asyncio.gather(move, return_exceptions=True)
+        await _until(moving, "the axis moves")
+        process.send_signal(signal.SIGKILL)  # no shutdown: nothing is flushed at exit
+        await process.wait()
+        move.cancel()
+        await asyncio.gather(move, return_exceptions=True)
     before = _entries(audit)
     [intent] = [e for e in before if e["path"] == "/api/v1/axes/x/move"]
     assert intent["event"] == "intent" and intent["body"] == {"position": FAR, "unit": "pulse"}
     assert intent["query"] == "wait=true"
     assert [e["seq"] for e in before] == list(range(1, len(before) + 1))
-    async with gateway_process(tmp_path, audit) as (_, url):
-        async with httpx.AsyncClient(base_url=url + "/api/v1", timeout=WAIT) as client:
-            stop = await client.post("/axes/x/stop")
-            assert stop.status_code == 200, stop.text
-            page = (await client.get("/audit?limit=5")).json()
-            assert page["last_seq"] > before[-1]["seq"]
+    async with (
+        gateway_process(tmp_path, audit) as (_, url),
+        httpx.AsyncClient(base_url=url + "/api/v1", timeout=WAIT) as client,
+    ):
+        stop = await client.post("/axes/x/stop")
+        assert stop.status_code == 200, stop.text
+        page = (await client.get("/audit?limit=5")).json()
+        assert page["last_seq"] > before[-1]["seq"]
     after = _entries(audit)
     assert [e["seq"] for e in after] == list(range(1, len(after) + 1))  # not [1, 2, 1, 2]
     assert after[: len(before)] == before
@@ -131,44 +135,46 @@ async def test_a_full_disk_refuses_motion_and_readiness_comes_back_by_itself(tmp
     audit = tmp_path / "audit.jsonl"
     limit = 1024 * 1024  # room for what else the process writes; the audit file is near it
     _prefill(audit, limit - 3000)
-    async with gateway_process(tmp_path, audit, preexec=_limited(limit)) as (process, url):
-        async with httpx.AsyncClient(base_url=url, timeout=WAIT) as client:
-            api = "/api/v1"
-            trace = await client.put(
-                f"{api}/loops/sim/trace", json={"enabled": True, "hex": False, "controllers": []}
-            )
-            assert trace.status_code == 200, trace.text
-            refused = None
-            for _ in range(50):  # each request's entries take the last bytes
-                r = await client.post(f"{api}/axes/x/move", json={"position": 4321, "unit": "pulse"})
-                if r.status_code == 503:
-                    refused = r
-                    break
-                assert r.status_code in (202, 409), r.text  # 409: still stopping from the last
-                await client.post(f"{api}/axes/x/stop")
-            assert refused is not None, "the audit file never filled"
-            assert refused.headers["Retry-After"] == "1"
-            assert refused.json()["field"] == "audit"
-            mark = len((await client.get(f"{api}/loops/sim/trace")).json()["lines"])
-            again = await client.post(f"{api}/axes/x/move", json={"position": 8765, "unit": "pulse"})
-            assert again.status_code == 503
-            stop = await client.post(f"{api}/axes/x/stop")  # a stop always passes
-            assert stop.status_code == 200, stop.text
-            lines = (await client.get(f"{api}/loops/sim/trace")).json()["lines"][mark:]
-            sent = [line["text"] for line in lines if line["direction"] == "tx"]
-            assert not any("8765" in text for text in sent), sent  # the move never went out
-            assert (await client.get("/readyz")).status_code == 503
-            # Space returns: the limit lifted from outside, no request in between.
-            resource.prlimit(
-                process.pid, resource.RLIMIT_FSIZE, (resource.RLIM_INFINITY, resource.RLIM_INFINITY)
-            )
+    async with (
+        gateway_process(tmp_path, audit, preexec=_limited(limit)) as (process, url),
+        httpx.AsyncClient(base_url=url, timeout=WAIT) as client,
+    ):
+        api = "/api/v1"
+        trace = await client.put(
+            f"{api}/loops/sim/trace", json={"enabled": True, "hex": False, "controllers": []}
+        )
+        assert trace.status_code == 200, trace.text
+        refused = None
+        for _ in range(50):  # each request's entries take the last bytes
+            r = await client.post(f"{api}/axes/x/move", json={"position": 4321, "unit": "pulse"})
+            if r.status_code == 503:
+                refused = r
+                break
+            assert r.status_code in (202, 409), r.text  # 409: still stopping from the last
+            await client.post(f"{api}/axes/x/stop")
+        assert refused is not None, "the audit file never filled"
+        assert refused.headers["Retry-After"] == "1"
+        assert refused.json()["field"] == "audit"
+        mark = len((await client.get(f"{api}/loops/sim/trace")).json()["lines"])
+        again = await client.post(f"{api}/axes/x/move", json={"position": 8765, "unit": "pulse"})
+        assert again.status_code == 503
+        stop = await client.post(f"{api}/axes/x/stop")  # a stop always passes
+        assert stop.status_code == 200, stop.text
+        lines = (await client.get(f"{api}/loops/sim/trace")).json()["lines"][mark:]
+        sent = [line["text"] for line in lines if line["direction"] == "tx"]
+        assert not any("8765" in text for text in sent), sent  # the move never went out
+        assert (await client.get("/readyz")).status_code == 503
+        # Space returns: the limit lifted from outside, no request in between.
+        resource.prlimit(
+            process.pid, resource.RLIMIT_FSIZE, (resource.RLIM_INFINITY, resource.RLIM_INFINITY)
+        )
 
-            async def ready() -> bool:
-                return (await client.get("/readyz")).status_code == 200
+        async def ready() -> bool:
+            return (await client.get("/readyz")).status_code == 200
 
-            await _until(ready, "/readyz recovers by itself")
-            ok = await client.post(f"{api}/axes/x/move", json={"position": 10, "unit": "pulse"})
-            assert ok.status_code in (202, 409), ok.text  # not refused for its entry
+        await _until(ready, "/readyz recovers by itself")
+        ok = await client.post(f"{api}/axes/x/move", json={"position": 10, "unit": "pulse"})
+        assert ok.status_code in (202, 409), ok.text  # not refused for its entry
     entries = _entries(audit)  # every line whole JSON: nothing torn, nothing glued
     assert [e["seq"] for e in entries] == list(range(1, len(entries) + 1))
     assert any(e.get("event") == "audit_resumed" for e in entries)

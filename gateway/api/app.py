@@ -95,6 +95,7 @@ def create_app(gateway: Runtime, *, auth: AuthConfig) -> FastAPI:
     leases = Leases()
     operations = Operations(gateway)
     operations.on_resolved(lambda op: audit.record(resolution_entry(op, API_PREFIX)))
+
     # An admin's change of the control state is its request's entry; a key switch's has none.
     def audit_key_switch(change: ControlChange) -> None:
         if change.source == "key_switch":

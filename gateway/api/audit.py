@@ -174,9 +174,7 @@ class AuditMiddleware:
                         self.audit, scope, principal, _client(scope), body
                     )
                 except AuditUnavailable as exc:
-                    self._record(
-                        scope, state, when, began, raw, len(raw), hashlib.sha256(raw), 503
-                    )
+                    self._record(scope, state, when, began, raw, len(raw), hashlib.sha256(raw), 503)
                     await audit_ahead.refuse(scope, receive, send, exc)
                     return
 

@@ -147,7 +147,7 @@ class AuditRecord:
         """Write ``entry`` now, before what it records acts; its ``seq`` (None: a stop whose
         entry is queued). ``AuditUnavailable`` when it cannot be written."""
         if self._file is None and self.path is None:
-            return self._in_memory(entry)["seq"]
+            return int(self._in_memory(entry)["seq"])
         self._start_writer()
         fsync = self.fsync_for(motion=motion, ahead=True)
         try:
@@ -273,7 +273,9 @@ class AuditRecord:
         except OSError as exc:
             self._failed(exc, 0)
             return
-        log.warning("audit log %s takes writes again (failing since %s)", self.path, note["failed_since"])
+        log.warning(
+            "audit log %s takes writes again (failing since %s)", self.path, note["failed_since"]
+        )
         self.last_error = self._failing_since = None
 
     def _failed(self, exc: OSError, lines: int) -> None:

@@ -56,7 +56,9 @@ def verify(paths: Sequence[Path]) -> Verified:
         for number, line, whole in _lines(path):
             count += 1
             if not whole:
-                return Verified(count, first, last_seq, Break(path, number, "a torn line (no newline)"))
+                return Verified(
+                    count, first, last_seq, Break(path, number, "a torn line (no newline)")
+                )
             try:
                 entry = json.loads(line)
             except ValueError as exc:
