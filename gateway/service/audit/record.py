@@ -149,7 +149,8 @@ class AuditRecord:
         if self._file is None and self.path is None:
             return int(self._in_memory(entry)["seq"])
         self._start_writer()
-        fsync = self.fsync_for(motion=motion, ahead=True)
+        # A stop never waits for the platter (DESIGN invariant 8: its latency is the line's).
+        fsync = self.fsync_for(motion=motion, ahead=True) and not stop
         try:
             stored = await asyncio.to_thread(self._ahead, bounded(entry), fsync)
         except OSError as exc:
