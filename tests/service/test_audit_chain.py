@@ -190,3 +190,25 @@ async def test_an_entry_written_ahead_is_on_disk_when_the_call_returns(tmp_path:
     assert again.last_seq == 1
     assert await again.write_ahead({"time": "t", "method": "POST", "path": "/n"}, motion=True) == 2
     await again.close()
+
+
+def test_the_audit_settings_reach_the_record_and_bad_ones_are_named(tmp_path: Path):
+    from gateway.api.app import audit_of
+    from gateway.service.audit import FsyncPolicy
+    from gateway.service.config import ConfigError, parse_config
+    from gateway.service.runtime.simulated import simulated_config
+
+    base = simulated_config(("1",)).model_dump(mode="json", exclude_none=True)
+    data = {**base, "audit_log": str(tmp_path / "a.jsonl")}
+    data["audit"] = {"fsync": "all", "max_bytes": 65536, "keep": 2, "retry_seconds": 0.5}
+    audit = audit_of(parse_config(data))
+    assert audit.fsync is FsyncPolicy.ALL and audit.retry_interval == 0.5
+    assert audit.fsync_for(motion=False, ahead=False)  # all: outcomes too
+    for key, value, rule in [
+        ("fsync", "sometimes", "motion"),
+        ("max_bytes", 10, "65536"),
+        ("keep", 0, "1"),
+    ]:
+        with pytest.raises(ConfigError, match=rf"audit\.{key}") as caught:
+            parse_config({**data, "audit": {key: value}})
+        assert rule in str(caught.value)
