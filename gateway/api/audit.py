@@ -163,7 +163,7 @@ class AuditMiddleware:
         whole = hashlib.sha256()
         total = 0
         principal = principal_of(scope)
-        if audit_ahead.acts(scope, principal):
+        if audit_ahead.acts(principal):
             assert principal is not None
             messages, raw, complete = await audit_ahead.pre_read(scope, receive)
             receive = audit_ahead.replay(messages, receive)

@@ -34,8 +34,8 @@ MOTION_ACTIONS = frozenset({"move", "home", "jog", "step"})
 STOP_ACTIONS = frozenset({"stop"})
 
 
-def acts(scope: Scope, principal: Principal | None) -> bool:
-    """Whether the request of ``scope`` may act: a principal with the operator role or more.
+def acts(principal: Principal | None) -> bool:
+    """Whether a request from ``principal`` may act: the operator role or more.
     (Refused ones, 401 and 403, are recorded once, after their answer.)"""
     return principal is not None and principal.role.allows(Role.OPERATOR)
 
