@@ -195,7 +195,8 @@ class AuditRecord:
         if len(self._queue) >= self._memory:
             self._queue.popleft()
             self.dropped += 1
-            log.error("audit log: the queue of unwritten entries is full; the oldest dropped")
+            if self.dropped == 1 or self.dropped % 1000 == 0:  # loud, not a flood of lines
+                log.error("audit log: queue of unwritten entries full: %d dropped", self.dropped)
         self._queue.append(bounded(entry))
         self._start_writer()
         if self._wake is not None:
