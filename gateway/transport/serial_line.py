@@ -25,7 +25,9 @@ RXD are used).
 from __future__ import annotations
 
 import asyncio
+import errno
 import logging
+import os
 import queue
 import socket
 import threading
@@ -65,6 +67,9 @@ class LineKind(Enum):
     @classmethod
     def of(cls, url: str) -> LineKind:
         """The kind of ``url``; ``ValueError`` naming the field ``url`` if it is none of them."""
+        if any(ord(char) < 0x20 or char == "\x7f" for char in url):
+            # a NUL makes the OS refuse the path with a ValueError, a newline hides in the log
+            raise ValueError(f"url {url!r}: control characters are not allowed; {_ALLOWED}")
         if "://" not in url:
             if url.startswith("/") and url.strip() == url and len(url) > 1:
                 return cls.DEVICE
@@ -283,7 +288,7 @@ class SerialLine(BufferedTransport):
                 f"{self.url}: cannot open: no connection within {self.open_timeout:g} s"
             ) from exc
         except OSError as exc:  # serial.SerialException is an OSError too
-            raise TransportClosed(f"{self.url}: cannot open: {exc}") from exc
+            raise TransportClosed(f"{self.url}: cannot open: {_why(exc)}") from exc
 
     async def _disconnect(self) -> None:
         port, self._port = self._port, None
@@ -345,6 +350,18 @@ class SerialLine(BufferedTransport):
         except BaseException:
             task.add_done_callback(_close_late)
             raise
+
+
+#: What an unplugged device (a USB adapter not there, its by-id link gone) fails an open with.
+_ABSENT = frozenset({errno.ENOENT, errno.ENODEV, errno.ENXIO})
+
+
+def _why(exc: OSError) -> str:
+    """Why an open failed, said plainly when the device is absent (pyserial's message names
+    the path and the error twice); its own words otherwise (a lock held, a refused rate)."""
+    if exc.errno in _ABSENT:
+        return f"the device is not present ({os.strerror(exc.errno)})"
+    return str(exc)
 
 
 def _close_late(task: asyncio.Future[Any]) -> None:

@@ -17,6 +17,9 @@ from pathlib import Path
 
 import pytest
 
+from gateway.cli.connection_guard import RESERVED_DESCRIPTORS
+from gateway.service.config import ConnectionSettings
+
 DEPLOY = Path(__file__).parents[2] / "deploy"
 UNIT = DEPLOY / "systemd" / "rc233-gateway.service"
 RULES = DEPLOY / "udev" / "99-rc233-serial.rules"
@@ -80,6 +83,12 @@ def test_the_unit_has_every_hardening_directive() -> None:
     assert directives["DeviceAllow"] == ["/dev/rc233-loop1 rw"]
     # The service logs JSON lines to the journal and is ready when it serves HTTP.
     assert "--log-format json" in directives["ExecStart"][0]
+
+
+def test_the_unit_gives_the_connections_and_their_reserve_their_descriptors() -> None:
+    limit = _directives(UNIT.read_text()).get("LimitNOFILE", ["(none: systemd's 1024)"])
+    wanted = ConnectionSettings().max_connections + RESERVED_DESCRIPTORS
+    assert limit[0].isdigit() and int(limit[0]) >= wanted, f"LimitNOFILE={limit[0]} < {wanted}"
 
 
 def test_systemd_analyze_verify_accepts_the_unit(tmp_path: Path) -> None:
