@@ -304,8 +304,11 @@ class AuditRecord:
             if self.healthy and not self._queue:
                 await wake.wait()
             else:  # failing: try again by itself, without waiting for a request
+                # asyncio.timeout, not wait_for: 3.11's wait_for can swallow a cancel that
+                # meets a wake-up, and the writer would outlive ``close``.
                 with contextlib.suppress(TimeoutError):
-                    await asyncio.wait_for(wake.wait(), self.retry_interval)
+                    async with asyncio.timeout(self.retry_interval):
+                        await wake.wait()
             wake.clear()
             try:
                 await asyncio.to_thread(self._drain)
