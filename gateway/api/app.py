@@ -43,8 +43,10 @@ from gateway.api.read_path import AxisReadPath
 from gateway.api.redaction import install_log_redaction
 from gateway.api.request_guard import RequestGuard
 from gateway.api.security import AuthConfig, install_security
+from gateway.service.audit import FsyncPolicy, RotationPolicy
 from gateway.service.axes.service import AxisService
 from gateway.service.baud import BaudChanger
+from gateway.service.config import GatewayConfig
 from gateway.service.control import ControlChange
 from gateway.service.controllers.service import ControllerService
 from gateway.service.feed import Feed
@@ -79,9 +81,20 @@ REST and WebSocket access to RORZE RC-233 controllers on RS-232C loops.
 """
 
 
+def audit_of(config: GatewayConfig) -> AuditLog:
+    """The audit log of ``config`` (``audit_log``, ``[audit]``)."""
+    settings = config.audit
+    return AuditLog(
+        config.audit_log,
+        rotation=RotationPolicy(max_bytes=settings.max_bytes, keep=settings.keep),
+        fsync=FsyncPolicy(settings.fsync),
+        retry_interval=settings.retry_seconds,
+    )
+
+
 def create_app(gateway: Runtime, *, auth: AuthConfig) -> FastAPI:
     """The application serving ``gateway`` with ``auth`` (tokens, or no-auth mode)."""
-    audit = AuditLog(gateway.config.audit_log)
+    audit = audit_of(gateway.config)
     leases = Leases()
     operations = Operations(gateway)
     operations.on_resolved(lambda op: audit.record(resolution_entry(op, API_PREFIX)))
@@ -107,6 +120,7 @@ def create_app(gateway: Runtime, *, auth: AuthConfig) -> FastAPI:
 
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
+        audit.start()
         await operations.restore()  # before the loops: what the last process left unended
         await gateway.start()
         try:

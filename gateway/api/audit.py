@@ -1,20 +1,24 @@
-"""The audit log, to answer "who did this to the machine": every mutating request, one JSON
-line each.
+"""The audit log, to answer "who did this to the machine": every mutating request, in JSON lines.
 
-``AuditMiddleware`` appends an entry for every POST, PUT, PATCH and DELETE, refused ones too
-(401, 403, 422): time (ISO 8601 UTC), token name and role, client address, method, path,
-query, request body (JSON, its first 4 KiB as text when longer), status, duration, and what
-the handler added with ``audit_note(request, ...)``: ``bytes_sent`` (the wire frames),
-``result``, ``position_before``, ``position_after``, ``operation``.
+``AuditMiddleware`` records every POST, PUT, PATCH and DELETE, refused ones too (401, 403,
+422). A request that may act (an operator's or an admin's) has its entry written ahead,
+before the route runs (``gateway.api.audit_ahead``; refused 503 with ``Retry-After`` when it
+cannot be written), and a second entry once its response has started, naming the first
+(``intent``). The second holds time (ISO 8601 UTC), token name and role, client address,
+method, path, query, request body (JSON; longer than 1 KiB: its first 1 KiB as text with its
+length and SHA-256), status, duration, and what the handler added with ``audit_note(request,
+...)``: ``bytes_sent`` (the wire frames), ``result``, ``position_before``,
+``position_after``, ``operation``.
 
-``AuditLog`` (gateway/api/audit_log.py) keeps the entries: the newest in memory, every one
-in its JSON-lines file. An answer given before any route authenticated the request names the
-principal of its ``Authorization`` header; tokens in the query are masked
-(``gateway.api.redaction``).
+``AuditLog`` (gateway/api/audit_log.py, on ``gateway.service.audit``) keeps the entries:
+numbered and chained in a file that cannot tear, the newest in memory. An answer given before
+any route authenticated the request names the principal of its ``Authorization`` header;
+tokens in the query are masked (``gateway.api.redaction``).
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
 import logging
 import time
@@ -26,12 +30,15 @@ from fastapi import APIRouter, Depends, FastAPI, Query, Request
 from pydantic import BaseModel, ConfigDict, Field
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
+from gateway.api import audit_ahead
 from gateway.api.asgi_status import call_noting_status
 from gateway.api.audit_log import MEMORY, AuditLog
 from gateway.api.problems import PROBLEM_RESPONSES
 from gateway.api.redaction import redact
 from gateway.api.security import Principal, principal_of, require
 from gateway.errors import InvalidInputError
+from gateway.service.audit import AuditUnavailable, utc_now
+from gateway.service.audit.bounds import VALUE_LIMIT
 from gateway.service.control import ControlChange
 from gateway.service.operations.types import Operation
 from gateway.service.roles import Role
@@ -53,16 +60,25 @@ log = logging.getLogger("gateway.audit")
 
 MUTATING_METHODS = frozenset({"POST", "PUT", "PATCH", "DELETE"})
 #: request bodies longer than this are recorded as their first bytes, as text
-BODY_LIMIT = 4096
+BODY_LIMIT = VALUE_LIMIT
 #: keys the middleware writes; a handler's note never overwrites them
 _CORE = frozenset(
-    {"seq", "time", "token", "role", "client", "method", "path", "query", "body", "status"}
+    {
+        "seq",
+        "prev",
+        "intent",
+        "event",
+        "time",
+        "token",
+        "role",
+        "client",
+        "method",
+        "path",
+        "query",
+        "body",
+        "status",
+    }
 )
-
-
-def utc_now() -> str:
-    """Now as ISO 8601 UTC with milliseconds (``2025-01-31T12:00:00.000Z``)."""
-    return datetime.now(UTC).isoformat(timespec="milliseconds").replace("+00:00", "Z")
 
 
 def resolution_entry(op: Operation, prefix: str) -> dict[str, Any]:
@@ -111,15 +127,22 @@ def _client(scope: Scope) -> str | None:
     return f"{client[0]}:{client[1]}" if client else None
 
 
-def _body(raw: bytes, total: int) -> tuple[Any, bool]:
+def _body(raw: bytes, total: int, sha256: str) -> dict[str, Any]:
+    """The body's members of an entry: the JSON, or (longer than ``BODY_LIMIT``) its first
+    bytes as text with its length and the SHA-256 of the whole."""
     if total == 0:
-        return None, False
+        return {"body": None}
     if total > BODY_LIMIT:
-        return raw[:BODY_LIMIT].decode("utf-8", errors="replace"), True
+        return {
+            "body": raw[:BODY_LIMIT].decode("utf-8", errors="ignore"),
+            "body_truncated": True,
+            "body_bytes": total,
+            "body_sha256": sha256,
+        }
     try:
-        return json.loads(raw), False
+        return {"body": json.loads(raw)}
     except ValueError:
-        return raw.decode("utf-8", errors="replace"), False
+        return {"body": raw.decode("utf-8", errors="replace")}
 
 
 class AuditMiddleware:
@@ -137,7 +160,23 @@ class AuditMiddleware:
         state: dict[str, Any] = scope.setdefault("state", {})
         when, began = utc_now(), time.perf_counter()
         kept = bytearray()
+        whole = hashlib.sha256()
         total = 0
+        principal = principal_of(scope)
+        if audit_ahead.acts(principal):
+            assert principal is not None
+            messages, raw, complete = await audit_ahead.pre_read(scope, receive)
+            receive = audit_ahead.replay(messages, receive)
+            if complete:
+                body = _body(raw, len(raw), hashlib.sha256(raw).hexdigest())
+                try:
+                    state["audit_intent"] = await audit_ahead.write_ahead(
+                        self.audit, scope, principal, _client(scope), body
+                    )
+                except AuditUnavailable as exc:
+                    self._record(scope, state, when, began, raw, len(raw), hashlib.sha256(raw), 503)
+                    await audit_ahead.refuse(scope, receive, send, exc)
+                    return
 
         async def reading() -> Message:
             nonlocal total
@@ -145,12 +184,13 @@ class AuditMiddleware:
             if message["type"] == "http.request":
                 chunk: bytes = message.get("body", b"")
                 total += len(chunk)
+                whole.update(chunk)
                 if len(kept) <= BODY_LIMIT:
                     kept.extend(chunk[: BODY_LIMIT + 1 - len(kept)])
             return message
 
         def record(status: int | None) -> None:
-            self._record(scope, state, when, began, bytes(kept), total, status)
+            self._record(scope, state, when, began, bytes(kept), total, whole, status)
 
         await call_noting_status(self.app, scope, reading, send, record)
 
@@ -162,6 +202,7 @@ class AuditMiddleware:
         began: float,
         raw: bytes,
         total: int,
+        whole: Any,
         status: int | None,
     ) -> None:
         if state.get("auth_failed"):
@@ -171,7 +212,6 @@ class AuditMiddleware:
             # Answered before any route authenticated it (404, 405, a refused body): the
             # entry still names who was refused.
             principal = principal_of(scope)
-        body, truncated = _body(raw, total)
         entry: dict[str, Any] = {
             "time": when,
             "token": principal.name if isinstance(principal, Principal) else None,
@@ -180,13 +220,13 @@ class AuditMiddleware:
             "method": scope["method"],
             "path": scope["path"],
             "query": redact(scope.get("query_string", b"").decode("latin-1")),
-            "body": body,
+            **_body(raw, total, whole.hexdigest()),
             "status": status,  # None: the client went away before any response
             "duration_ms": round((time.perf_counter() - began) * 1000, 3),
         }
-        if truncated:
-            entry["body_truncated"] = True
-            entry["body_bytes"] = total
+        intent = state.get("audit_intent")
+        if isinstance(intent, int):
+            entry["intent"] = intent  # the entry written ahead, before anything was sent
         note = state.get("audit")
         if isinstance(note, Mapping):
             entry.update({k: v for k, v in note.items() if k not in _CORE})
@@ -202,6 +242,15 @@ class AuditEntry(BaseModel):
     model_config = ConfigDict(extra="allow")
 
     seq: int
+    prev: str | None = Field(
+        None, description="SHA-256 of the line before this one in the file (the chain)"
+    )
+    event: str | None = Field(
+        None, description="``intent``: written ahead, before anything was sent"
+    )
+    intent: int | None = Field(
+        None, description="the seq of the entry written ahead of this request"
+    )
     time: str
     token: str | None = None
     role: str | None = None
@@ -212,7 +261,9 @@ class AuditEntry(BaseModel):
     body: Any = None
     status: int | None = None
     duration_ms: float | None = None
-    bytes_sent: list[str] | None = None
+    bytes_sent: list[str] | str | None = Field(
+        None, description="the frames sent (longer than 1 KiB: cut, with bytes_sha256)"
+    )
     result: Any = None
     position_before: Any = Field(None, description="pulses, before a motion request")
     position_after: Any = Field(None, description="pulses, when the motion ended")
@@ -264,6 +315,7 @@ async def read_audit(
     """The audit log (admin): the newest ``limit`` entries, or the first after ``since``."""
     audit: AuditLog = request.app.state.audit
     seq, after = _since(since)
+    await audit.flush()  # outcomes still queued are written first: the page shows them
     return AuditPage(
         entries=[AuditEntry(**e) for e in audit.entries(limit=limit, since=seq, after=after)],
         last_seq=audit.last_seq,

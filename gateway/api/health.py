@@ -3,7 +3,9 @@ has none).
 
 ``/healthz``: the process answers (200). ``/readyz``: 200 when every loop is up and the audit
 log's file takes its lines, else a 503 problem naming the loops that are down (``loops_down``)
-and the audit log's failure. ``/metrics``: Prometheus text (the audit log's series too).
+and the audit log's failure. The audit log's writer tries a failing file again by itself
+(``[audit] retry_seconds``), so readiness comes back when the file takes writes, without
+waiting for a request that acts. ``/metrics``: Prometheus text (the audit log's series too).
 ``install_health_and_metrics(app, gateway)`` sets them up with the HTTP metrics middleware.
 """
 
@@ -60,7 +62,7 @@ _NOT_READY: dict[int | str, dict[str, Any]] = {
 
 @router.get("/readyz", response_model=Readiness, responses=_NOT_READY)
 async def readyz(request: Request) -> Any:
-    """200 when every loop is up; else 503 naming the loops that are down."""
+    """200 when every loop is up and the audit file takes writes; else 503 naming why."""
     gateway = _metrics(request).gateway
     if gateway is None:
         states: dict[str, str] = {}

@@ -1,5 +1,7 @@
 """The ``rc233-gateway`` command line.
 
+``audit verify FILE`` checks audit files offline (``gateway.cli.audit_verify``).
+
 ``trace``, ``audit``, ``parse``, ``catalog`` and ``--version`` are what people type at a terminal
 on site (the first two against a running gateway): they start without importing the API, the
 service and the simulator (about 1.5 s of CPU on the gateway computer), which the other
@@ -112,6 +114,10 @@ def _light_parser(command: str) -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the console script."""
     words = list(sys.argv[1:] if argv is None else argv)
+    if words[:2] == ["audit", "verify"]:  # offline, on files: not the remote ``audit``
+        from gateway.cli.audit_verify import main as verify_main
+
+        return verify_main(words[2:])
     light = bool(words) and (words[0] in LIGHT_COMMANDS or words[0] == "--version")
     args = (_light_parser(words[0]) if light else build_parser()).parse_args(words)
     code: int = args.func(args)

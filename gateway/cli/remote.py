@@ -86,11 +86,14 @@ def format_trace(line: dict[str, Any]) -> str:
 
 def format_audit(entry: dict[str, Any]) -> str:
     """One audit entry as a terminal line: seq, time, who, request, status, what was sent."""
-    sent = " ".join(entry.get("bytes_sent") or [])
+    frames = entry.get("bytes_sent") or []
+    sent = frames if isinstance(frames, str) else " ".join(frames)
     query = f"?{entry['query']}" if entry.get("query") else ""
+    # an entry written ahead of its request has no status yet
+    status = "ahead" if entry.get("event") == "intent" else entry.get("status")
     return (
         f"{entry['seq']:>6} {entry['time']}  {entry.get('token') or '-'}  "
-        f"{entry['method']} {entry['path']}{query} -> {entry.get('status')}"
+        f"{entry['method']} {entry['path']}{query} -> {status}"
         + (f"  sent {sent}" if sent else "")
     )
 

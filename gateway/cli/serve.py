@@ -229,7 +229,9 @@ def _edge_node(
     and written to the API's audit log."""
     if config.mqtt is None:
         return None
-    commands = DeviceCommands(app.state.axes, auth.book.lookup, app.state.audit.record)
+    audit = app.state.audit
+    commands = DeviceCommands(axes=app.state.axes, lookup=auth.book.lookup, audit=audit.record,
+                              ahead=audit.write_ahead)  # fmt: skip
     mqtt = config.mqtt
     print(f"rc233-gateway serve: Sparkplug B edge node {mqtt.group}/{mqtt.edge_node} on "
           f"{mqtt.host}:{mqtt.port}", flush=True)  # fmt: skip

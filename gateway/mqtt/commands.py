@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Awaitable, Callable, Mapping
 from typing import Any, Protocol
 
 from gateway.errors import GatewayError
@@ -57,6 +57,15 @@ class StopAxes(Protocol):
 CommandResult = tuple[int, str]
 
 
+class WriteAhead(Protocol):
+    """``gateway.service.audit.AuditRecord.write_ahead``: the entry on disk before acting."""
+
+    def __call__(
+        self, entry: Mapping[str, Any], *, motion: bool, stop: bool = False
+    ) -> Awaitable[int | None]:
+        """The entry's seq (None: a stop's entry queued); raises when it cannot be written."""
+
+
 class DeviceCommands:
     """Authorises, carries out and audits the DCMDs of one edge node."""
 
@@ -65,8 +74,11 @@ class DeviceCommands:
         axes: StopAxes,
         lookup: Callable[[str], Principal | None],
         audit: Callable[[Mapping[str, Any]], object],
+        ahead: WriteAhead | None = None,
     ) -> None:
         self.axes, self.lookup, self.audit = axes, lookup, audit
+        #: writes the entry of an authorised DCMD before it acts (None: not written ahead)
+        self.ahead = ahead
 
     async def handle(
         self, topic: str, ctl: ControllerRef, labels: Mapping[str, str], metrics: dict[str, Value]
@@ -92,6 +104,17 @@ class DeviceCommands:
             status, result = 403, f"token {principal.name!r} ({principal.role}) is not an operator"
         elif not actions and status == 200:
             status, result = 422, "no command metric"
+        intent: int | None = None
+        if status == 200 and self.ahead is not None:
+            assert principal is not None
+            try:
+                intent = await self.ahead(
+                    _entry(principal, topic, metrics, "intent"),
+                    motion=False,
+                    stop=any(what == "Stop" for _, what in actions),
+                )
+            except GatewayError as exc:  # the entry cannot be written: nothing acts
+                status, result = 503, f"{type(exc).__name__}: {exc}"
         if status == 200:
             try:
                 for axis, what in actions:
@@ -102,24 +125,34 @@ class DeviceCommands:
                         self.axes.acknowledge(axis, None)
             except GatewayError as exc:  # the loop is down, the device did not answer...
                 status, result = 503, f"{type(exc).__name__}: {exc}"
-        self.audit(
-            {
-                "time": _utc(),
-                "token": principal.name if principal else None,
-                "role": str(principal.role) if principal else None,
-                "client": "mqtt",
-                "method": "DCMD",
-                "path": topic,
-                "query": None,
-                "body": {k: v for k, v in metrics.items()},
-                "status": status,
-                "duration": round(time.perf_counter() - began, 6),
-                "result": result,
-            }
-        )
+        outcome = _entry(principal, topic, metrics, None)
+        outcome.update(status=status, duration=round(time.perf_counter() - began, 6))
+        outcome["result"] = result
+        if intent is not None:
+            outcome["intent"] = intent
+        self.audit(outcome)
         if status != 200:
             log.warning("mqtt: DCMD %s refused (%d): %s", topic, status, result)
         return status, result
+
+
+def _entry(
+    principal: Principal | None, topic: str, metrics: Mapping[str, Value], event: str | None
+) -> dict[str, Any]:
+    """An entry of a DCMD (the record cuts a long body, with its SHA-256)."""
+    entry: dict[str, Any] = {
+        "time": _utc(),
+        "token": principal.name if principal else None,
+        "role": str(principal.role) if principal else None,
+        "client": "mqtt",
+        "method": "DCMD",
+        "path": topic,
+        "query": None,
+        "body": dict(metrics),
+    }
+    if event is not None:
+        entry["event"] = event
+    return entry
 
 
 def _utc() -> str:

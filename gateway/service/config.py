@@ -268,6 +268,21 @@ class MqttSettings(_Strict):
         return self
 
 
+class AuditSettings(_Strict):
+    """The audit file (``audit_log``): forcing entries to the disk, rotation, retries."""
+
+    #: entries ``fsync``-ed before their request acts: ``motion`` (the default), ``acting``
+    #: (every request that acts), ``all`` (outcomes too) or ``none`` (flushed to the OS only)
+    fsync: Literal["motion", "acting", "all", "none"] = "motion"
+    max_bytes: int = Field(
+        64 * 1024 * 1024, ge=64 * 1024, le=2**40, description="rotate at this size (bytes)"
+    )
+    keep: int = Field(10, ge=1, le=1000, description="rotated files kept (FILE.1 ... FILE.n)")
+    retry_seconds: float = Field(
+        1.0, ge=0.05, le=60, description="while the file fails: seconds between tries"
+    )
+
+
 class GatewayConfig(BaseSettings):
     """The whole configuration (a TOML file, environment ``RC233_*`` over it)."""
 
@@ -278,6 +293,7 @@ class GatewayConfig(BaseSettings):
     loops: list[LoopSettings] = Field(min_length=1)
     security: SecuritySettings = SecuritySettings()
     audit_log: Path | None = None
+    audit: AuditSettings = AuditSettings()
     #: The state directory (SQLite: operations, idempotency keys, Sparkplug bdSeq); None: the
     #: default of ``gateway.service.store.location`` (docs/operations.md, "The state")
     state_dir: Path | None = None

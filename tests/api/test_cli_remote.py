@@ -87,8 +87,9 @@ async def test_audit_follow_prints_a_move_as_it_is_made(served: tuple[Api, str])
             headers=auth("operator"),
         )  # fmt: skip
         assert move.status_code == 200, move.text
-        lines = await _read_until(follow, "/api/v1/axes/x/move")
-        (line,) = [ln for ln in lines if "/api/v1/axes/x/move" in ln]
+        lines = await _read_until(follow, "/api/v1/axes/x/move?wait=true -> 200")
+        ahead, line = [ln for ln in lines if "/api/v1/axes/x/move" in ln]
+        assert "-> ahead" in ahead  # its entry, written before anything was sent
         assert "operator  POST /api/v1/axes/x/move?wait=true -> 200" in line
         assert "sent $1" in line  # the frames that went out
     finally:

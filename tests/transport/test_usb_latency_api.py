@@ -61,7 +61,7 @@ def gateway(tmp_path: Path) -> Gateway:
             app = create_app(runtime, auth=AuthConfig(no_auth=True))
             async with app.router.lifespan_context(app):
                 transport = httpx.ASGITransport(app=app)
-                base = "http://gateway.test"
+                base = "http://localhost"
                 async with httpx.AsyncClient(transport=transport, base_url=base, timeout=30) as c:
                     yield c
 

@@ -1,0 +1,23 @@
+"""The audit record: what was asked of the machines, written before it acts, that cannot tear.
+
+``record`` (``AuditRecord``: write-ahead and queued entries, the newest in memory),
+``chain_file`` (the file: numbered, chained by SHA-256, cut back on a failed write, rotated),
+``bounds`` (values of bounded size) and ``verify`` (checking files after the fact).
+"""
+
+from gateway.service.audit.chain_file import ChainFile, RotationPolicy
+from gateway.service.audit.record import MEMORY, AuditRecord, AuditUnavailable, FsyncPolicy, utc_now
+from gateway.service.audit.verify import Break, Verified, verify
+
+__all__ = [
+    "MEMORY",
+    "AuditRecord",
+    "AuditUnavailable",
+    "Break",
+    "ChainFile",
+    "FsyncPolicy",
+    "RotationPolicy",
+    "Verified",
+    "utc_now",
+    "verify",
+]
