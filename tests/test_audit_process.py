@@ -25,6 +25,7 @@ import httpx
 
 from gateway.cli import main
 from gateway.service.audit import ChainFile
+from tests.api.sim_app import DECLARE_JSON
 from tests.serve_process import GATEWAY, free_port
 
 #: Real seconds to wait for the process (a busy machine with two cores)
@@ -79,7 +80,9 @@ async def test_a_move_killed_mid_way_is_in_the_file_and_the_sequence_goes_on(tmp
     audit = tmp_path / "audit.jsonl"
     async with (
         gateway_process(tmp_path, audit) as (process, url),
-        httpx.AsyncClient(base_url=url + "/api/v1", timeout=WAIT) as client,
+        httpx.AsyncClient(
+            base_url=url + "/api/v1", timeout=WAIT, event_hooks=DECLARE_JSON
+        ) as client,
     ):
         move = asyncio.create_task(
             client.post("/axes/x/move?wait=true", json={"position": FAR, "unit": "pulse"})
@@ -101,7 +104,9 @@ async def test_a_move_killed_mid_way_is_in_the_file_and_the_sequence_goes_on(tmp
     assert [e["seq"] for e in before] == list(range(1, len(before) + 1))
     async with (
         gateway_process(tmp_path, audit) as (_, url),
-        httpx.AsyncClient(base_url=url + "/api/v1", timeout=WAIT) as client,
+        httpx.AsyncClient(
+            base_url=url + "/api/v1", timeout=WAIT, event_hooks=DECLARE_JSON
+        ) as client,
     ):
         stop = await client.post("/axes/x/stop")
         assert stop.status_code == 200, stop.text
@@ -137,7 +142,7 @@ async def test_a_full_disk_refuses_motion_and_readiness_comes_back_by_itself(tmp
     _prefill(audit, limit - 3000)
     async with (
         gateway_process(tmp_path, audit, preexec=_limited(limit)) as (process, url),
-        httpx.AsyncClient(base_url=url, timeout=WAIT) as client,
+        httpx.AsyncClient(base_url=url, timeout=WAIT, event_hooks=DECLARE_JSON) as client,
     ):
         api = "/api/v1"
         trace = await client.put(
