@@ -129,7 +129,7 @@ class CellMetrics:
                 out.sample("rc233_axis_position_pulses", {"axis": ref.id}, state.position)
         out.family("rc233_axis_moving", "gauge", "1 while the motor turns; absent when stale.")
         for ref, state in axes:
-            if not state.stale:
+            if not state.stale and state.moving is not None:
                 out.sample("rc233_axis_moving", {"axis": ref.id}, int(state.moving))
         out.family("rc233_axis_stale", "gauge", "1 when no fresh reading came for a while.")
         for ref, state in axes:

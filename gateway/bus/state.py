@@ -41,6 +41,7 @@ from gateway.bus.events import (
     TransactionDone,
 )
 from gateway.bus.latches import error_motor, latch_errors, unlatch
+from gateway.bus.origin import SILENT_AND_BACK, axis_moving
 from gateway.bus.readings import apply_reply
 from gateway.bus.state_types import (
     AXIS_ERRORS,
@@ -51,6 +52,7 @@ from gateway.bus.state_types import (
     ErrorKind,
     Latch,
     LoopState,
+    Origin,
     Snapshot,
 )
 from gateway.protocol.framing import Framing
@@ -198,7 +200,6 @@ class StateCache:
     def _derive_axes(self, now: float, loop: str, body: str) -> None:
         """The axis fields that follow from the controller: moving, selected, errors."""
         ctl = self._ctls[loop, body]  # its updated does not matter here
-        moving_motor = ctl.selected_motor if ctl.moving else None
         for m in MOTORS:
             shows = {k: m in ctl.latched[k].axes for k in AXIS_ERRORS if k in ctl.latched}
             step_out = bool(ctl.condition_bits.get(6)) and error_motor(ctl) in (None, m)
@@ -207,7 +208,7 @@ class StateCache:
                 loop,
                 body,
                 m,
-                moving=moving_motor == m,
+                moving=axis_moving(ctl, m),
                 selected=ctl.selected_motor == m,
                 step_out=step_out,
                 limit_error=shows.get(ErrorKind.LIMIT, False),
@@ -315,6 +316,7 @@ class StateCache:
         it came back (the scheduler's probes, ``97``: the selection) is current, and kept."""
         self._set_loop(now, loop, up=up, cause=None if up else cause)
         if up:
+            self._reconnected(now, loop)
             return
         for name, body in [k for k in self._ctls if k[0] == loop]:
             # Nothing a silent loop said is current: not even that a motor moves (a moving
@@ -324,7 +326,7 @@ class StateCache:
                 name,
                 body,
                 online=None,
-                moving=False,
+                moving=None,
                 selection_confirmed=False,
                 signed_positions=None,
             )
@@ -334,7 +336,10 @@ class StateCache:
     def set_online(self, loop: str, body: str, online: bool, now: float) -> None:
         """The poller found the controller answering (or not): off and back, it has reloaded
         its settings from the EEPROM (§16), EP among them."""
+        back = online and self.flags(loop, body).online is False
         self.write_controller(now, loop, body, online=online, signed_positions=None)
+        if back:
+            self.controller_reset(now, loop, body, SILENT_AND_BACK)
         if not online:  # switched off: nothing moves; power-on resets the selection (§16)
             self.write_controller(now, loop, body, moving=False, selection_confirmed=False)
             for m in MOTORS:
@@ -373,3 +378,28 @@ class StateCache:
             updated = self._fresh.get(key, axis.updated)
             if updated is None or now - updated > self.stale_after:
                 self.write_axis(now, loop, body, m, stale=True)
+
+    # ------------------------------------------------------------------ origin
+    # A controller reset (power cycle) restarts both counters at 0 wherever the axes stand:
+    # the origin is lost until an origin search ends (DESIGN invariant 16,
+    # docs/manual-notes.md "How the gateway sees a controller reset").
+
+    def controller_reset(
+        self, now: float, loop: str, body: str, cause: str, *, read: int | None = None
+    ) -> None:
+        """A reset of controller ``body`` was seen (``cause``): both origins are lost, and
+        nothing read before ``now`` counts. ``read``: the motor whose reading (0) showed it,
+        kept; the other counter is not known until read."""
+        self.write_controller(now, loop, body, reset_at=now, reset_cause=cause)
+        for m in MOTORS:
+            unread = {} if m == read else {"position": None, "counter": None, "stale": True}
+            self.write_axis(
+                now, loop, body, m, origin=Origin.LOST, homing=False, counting=False, **unread
+            )
+
+    def _reconnected(self, now: float, loop: str) -> None:
+        """The line came back: nothing read before counts for a check (the controllers may
+        have been reset meanwhile; a reading will tell, ``readings``)."""
+        for name, body in [k for k in self._ctls if k[0] == loop]:
+            self.write_controller(now, name, body, reset_at=now)
+

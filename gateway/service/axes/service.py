@@ -259,7 +259,7 @@ class AxisService:
         """Read OH, OL, OS, OC and OX; OC only while stopped (§10 OC), else the last read."""
         ref = self.ref(ident)
         ctl = self.gateway.state.controller(ref.loop, ref.body)
-        moving = ctl.moving
+        moving = bool(ctl.moving)
         if moving and ctl.selected_motor != ref.motor:
             # OH, OL, OS, OC are per motor: reading motor m's needs F{m}, and F is refused
             # while a motor moves (§10 F). The moving motor is the selected one.
