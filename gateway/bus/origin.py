@@ -107,12 +107,7 @@ def origin_position(
         cause = COUNTER_RESTARTED.format(motor=motor, previous=previous)
         cache.controller_reset(now, loop, body, cause, read=motor)
         axis = cache.axis(loop, body, motor)
-    current = (
-        axis.position is not None
-        and not axis.stale
-        and axis.position_at is not None
-        and (ctl.reset_at is None or axis.position_at >= ctl.reset_at)
-    )
+    current = axis.position is not None and not axis.stale and axis.position_current
     position = follow_counter(reported, axis.position if current else None)
     cache.write_axis(
         now,
@@ -121,7 +116,7 @@ def origin_position(
         motor,
         position=position,
         counter=counter_of(reported),
-        position_at=now,
+        position_current=True,
         counting=axis.counting and not settled,
         updated=now,
         stale=False,

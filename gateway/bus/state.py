@@ -394,12 +394,21 @@ class StateCache:
         for m in MOTORS:
             unread = {} if m == read else {"position": None, "counter": None, "stale": True}
             self.write_axis(
-                now, loop, body, m, origin=Origin.LOST, homing=False, counting=False, **unread
+                now,
+                loop,
+                body,
+                m,
+                origin=Origin.LOST,
+                homing=False,
+                counting=False,
+                position_current=m == read,
+                **unread,
             )
 
     def _reconnected(self, now: float, loop: str) -> None:
         """The line came back: nothing read before counts for a check (the controllers may
         have been reset meanwhile; a reading will tell, ``readings``)."""
         for name, body in [k for k in self._ctls if k[0] == loop]:
-            self.write_controller(now, name, body, reset_at=now)
+            for m in MOTORS:
+                self.write_axis(now, name, body, m, position_current=False)
 

@@ -82,7 +82,8 @@ class AxisState:
     #: counter that wrapped below 0 in EP0 is the negative position it is
     position: int | None = None
     counter: int | None = None  # the raw 24-bit counter of the last reading (0..16,777,215)
-    position_at: float | None = None  # when the position was last read
+    #: the position was read since the controller's last reset or the line's reconnect
+    position_current: bool = False
     moving: bool | None = None  # None: not read yet, or the moving motor is not known
     origin: Origin = Origin.UNKNOWN
     homing: bool = False  # an origin search was accepted and has not ended yet
@@ -117,7 +118,7 @@ class ControllerState:
     condition_bits: Mapping[int, int] = field(default_factory=lambda: MappingProxyType({}))
     program: ProgramState | None = None
     moving: bool | None = None  # "" bit 0; None: not read yet
-    #: the last controller reset (or line reconnect) seen: no reading older than it counts
+    #: when the gateway last saw the controller reset (``gateway.bus.origin``)
     reset_at: float | None = None
     reset_cause: str | None = None  # why the gateway concluded the last reset
     selected_motor: int | None = None
