@@ -411,4 +411,3 @@ class StateCache:
         for name, body in [k for k in self._ctls if k[0] == loop]:
             for m in MOTORS:
                 self.write_axis(now, name, body, m, position_current=False)
-

@@ -32,6 +32,7 @@ from gateway.service.config import GatewayConfig, LoopSettings
 from gateway.service.control import ControlStates
 from gateway.service.events import EventKind, ServiceEvent, ServiceEvents
 from gateway.service.runtime.key_switch import KeySwitchReader
+from gateway.service.runtime.origin_watch import OriginWatch
 from gateway.service.topology import LoopRef, Topology
 from gateway.transport.base import Transport
 
@@ -96,6 +97,8 @@ class Runtime:
             scheduler.events.subscribe(self._relay)
         #: local/remote control of every controller, and the key switches' reader
         self.control = ControlStates(self.topology, self.events)
+        #: the origin events and log lines (a controller reset, an origin found)
+        self.origins = OriginWatch(self.topology, self.state, self.events)
         self.key_switches = KeySwitchReader(self.topology, self.control, self.schedulers)
         if transports:
             raise ValueError(f"transports for loops not configured: {sorted(transports)}")
