@@ -98,7 +98,8 @@ async def test_commands_that_move_a_soft_limited_axis_wait_for_a_home_after_a_re
         body = {"command": "1{mt}", "mt": 1}  # to the electrical origin: a reset moved it
         r = await api.client.post("/controllers/sim.1/commands", json=body)
         assert r.status_code == 409 and "home first" in r.json()["rule"], r.text
-        r = await api.client.post("/loops/sim/raw", json={"controller": "1", "text": "7*", "motor": 1})
+        one_pulse = {"controller": "1", "text": "7*", "motor": 1}
+        r = await api.client.post("/loops/sim/raw", json=one_pulse)
         assert r.status_code == 409, r.text
         assert moved(api.heard("1", mark)) == []
         # An origin search is what gives it back: it passes.
