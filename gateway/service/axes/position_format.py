@@ -58,7 +58,8 @@ def check_target(ref: AxisRef, target: int, fmt: PositionFormat) -> None:
             f"target {target} pulses is negative, and controller {ref.controller_id} "
             "manages positions unsigned (EP0): the counter would wrap below 0",
             field="body.position",
-            rule="negative positions need signed management: EP1 or mode 1 (§10 EP, §7-4)",
+            rule=f"{target_range_rule(fmt)}; negative positions need signed management: EP1 "
+            "or mode 1",
         )
     if not low <= target <= high:
         raise InvalidInputError(
