@@ -24,7 +24,8 @@ origin searches (``0`` ...)  allowed: they end at the origin, where the position
 
 The axis is the command's motor suffix, else the ``motor`` of the request, else the selected
 motor as cached; the motor found is handed to the scheduler so that the motor checked is the
-motor that moves. "Position" is the cached one when fresh, else read with ``6{mt}``. Targets
+motor that moves. "Position" is read with ``6{mt}`` first (``origin_guard``: a reset shows
+there, and a lost origin refuses the command 409 "home first"). Targets
 beyond the soft limits, the position counter or the controller's format (EP0: no negative
 target) are 422 naming the rule; nothing is sent. Axes without soft limits are not touched.
 """
