@@ -10,8 +10,8 @@ that a host can see is (docs/manual-notes.md "How the gateway sees a controller 
   that could have changed the counter in between (no motion seen or started, no preset, no
   origin search, no user program running), is a reset (``COUNTER_RESTARTED``).
 
-An origin search that ends stopped without a limit or emergency error (§10 0 ... 0Z: the
-counter is 0 at the origin) makes the axis homed; S / SS abandon it (no new origin).
+An origin search that ends stopped without a limit, emergency or command error (§10 0 ... 0Z:
+the counter is 0 at the origin) makes the axis homed; S / SS abandon it (no new origin).
 
 ``readings`` calls these with each reply; they write through the same ``StateWriter``.
 """
@@ -136,7 +136,8 @@ def origin_accepted(
         return
     if motor is None or (form.effect is not Effect.MOTION and form is not _PRESET):
         return
-    search = form in commands.ORIGIN_SEARCHES
+    # A search sent while a motor moves is ignored with a command error (§9-1 注意): no search.
+    search = form in commands.ORIGIN_SEARCHES and not cache.flags(loop, body).moving
     cache.write_axis(now, loop, body, motor, counting=True, **({"homing": True} if search else {}))
 
 
@@ -152,7 +153,9 @@ def origin_status(
             if axis_moving(ctl, m) is not False and not axis.counting:
                 cache.write_axis(now, loop, body, m, counting=True)
         elif axis.homing:
-            found = not flags.limit_error and not flags.emergency_stop
+            # A limit or EMS ends a search without an origin; a command error means it was
+            # not taken (§10 "", §9-1 注意).
+            found = not (flags.limit_error or flags.emergency_stop or flags.command_error)
             origin = {"origin": Origin.HOMED} if found else {}
             cache.write_axis(now, loop, body, m, homing=False, **origin)
 
