@@ -6,9 +6,10 @@ that a host can see is (docs/manual-notes.md "How the gateway sees a controller 
 * silence: a controller switched off answers nothing, while the rest of its loop does; one
   that answers again after the poller found it silent is taken as reset (``SILENT_AND_BACK``);
 * its position counters: power-on starts both at 0 (§16: every RAM value at its initial
-  value). A reading of 0 where the last reading was not 0, with nothing the gateway knows of
-  that could have changed the counter in between (no motion seen or started, no preset, no
-  origin search, no user program running), is a reset (``COUNTER_RESTARTED``).
+  value). Two readings of 0 in a row after a reading that was not 0, with nothing the
+  gateway knows of that could have changed the counter in between (no motion seen or
+  started, no preset, no origin search, no user program running), are a reset
+  (``COUNTER_RESTARTED``); one alone could be a reply bent on the line.
 
 An origin search that ends stopped without a limit, emergency or command error (§10 0 ... 0Z:
 the counter is 0 at the origin) makes the axis homed; S / SS abandon it (no new origin).
@@ -96,17 +97,15 @@ def origin_position(
     ctl = cache.flags(loop, body)
     axis = cache.axis(loop, body, motor)
     settled = not ctl.moving and not axis.homing
-    if (
-        counter_of(reported) == 0
-        and axis.counter not in (None, 0)
-        and settled
-        and not axis.counting
-        and ctl.program not in _PROGRAM_ACTIVE
-    ):
-        previous = axis.position if axis.position is not None else axis.counter
-        cause = COUNTER_RESTARTED.format(motor=motor, previous=previous)
+    quiet = settled and not axis.counting and ctl.program not in _PROGRAM_ACTIVE
+    zero = quiet and counter_of(reported) == 0
+    zero_from: int | None = None
+    if zero and axis.zero_from is not None:  # twice 0 by itself: the controller was reset
+        cause = COUNTER_RESTARTED.format(motor=motor, previous=axis.zero_from)
         cache.controller_reset(now, loop, body, cause, read=motor)
         axis = cache.axis(loop, body, motor)
+    elif zero and axis.counter not in (None, 0):
+        zero_from = axis.position if axis.position is not None else axis.counter
     current = axis.position is not None and not axis.stale and axis.position_current
     position = follow_counter(reported, axis.position if current else None)
     cache.write_axis(
@@ -118,6 +117,7 @@ def origin_position(
         counter=counter_of(reported),
         position_current=True,
         counting=axis.counting and not settled,
+        zero_from=zero_from,
         updated=now,
         stale=False,
     )

@@ -89,6 +89,9 @@ class AxisState:
     homing: bool = False  # an origin search was accepted and has not ended yet
     #: the counter may have changed since the last reading: motion, a preset, a search
     counting: bool = False
+    #: the last reading was 0 by itself, from this position: a reset if the next says 0 too
+    #: (one reading could be a reply bent on the line)
+    zero_from: int | None = None
     sensors: SensorBits | None = None
     selected: bool = False  # F selects this motor (§10 F)
     step_out: bool = False  # 9 bit 6: held by the device until homing or RD (§10 9 ⑤)

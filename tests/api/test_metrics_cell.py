@@ -98,6 +98,7 @@ async def test_homed_is_a_series_of_every_axis_and_a_reset_clears_it() -> None:
         await api.client.post("/axes/x/move", json={"position": 3000, "unit": "pulse"},
                               params={"wait": "true"})  # fmt: skip
         Controls(api.sim).power_cycle("1")
-        await api.client.get("/axes/x", params={"fresh": "true"})  # the reading shows it
+        for _ in range(2):  # two readings of 0 by itself show it (one could be noise)
+            await api.client.get("/axes/x", params={"fresh": "true"})
         fams = await _scrape(api)
         assert value(fams, "rc233_axis_homed", axis="sim.1.1") == 0

@@ -64,7 +64,9 @@ def test_a_counter_at_zero_by_itself_is_a_reset_and_loses_both_origins() -> None
     reply(cache, "", "0", 1.5)
     reply(cache, "61", "00010000", 1.6)
     reply(cache, "62", "00000300", 1.7, motor=2)
-    reply(cache, "61", "00000000", 2.0)  # nothing moved it: power-on restarted it
+    reply(cache, "61", "00000000", 1.9)  # nothing moved it: power-on, or a reply bent?
+    assert cache.axis(LOOP, "1", 1).homed  # one reading alone is no proof
+    reply(cache, "61", "00000000", 2.0)  # again: power-on restarted it
     one, two = cache.axis(LOOP, "1", 1), cache.axis(LOOP, "1", 2)
     assert (one.origin, one.position, one.counter) == (Origin.LOST, 0, 0)
     assert (two.origin, two.position, two.stale) == (Origin.LOST, None, True)
@@ -117,3 +119,14 @@ def test_after_a_reconnect_no_earlier_reading_is_current() -> None:
     reply(cache, "61", "00000100", 3.2)  # not followed from before the reconnect
     axis = cache.axis(LOOP, "1", 1)
     assert (axis.position, axis.position_current) == (100, True)
+
+
+def test_one_reading_of_zero_between_two_others_is_no_reset() -> None:
+    cache = StateCache()
+    homed(cache)
+    reply(cache, "61", "00010000", 1.0)
+    reply(cache, "61", "00000000", 1.1)  # '1' -> '0' is one bit: a reply bent on the line
+    reply(cache, "61", "00010000", 1.2)
+    reply(cache, "61", "00000000", 1.3)
+    axis = cache.axis(LOOP, "1", 1)
+    assert axis.homed and cache.controller(LOOP, "1").reset_at is None

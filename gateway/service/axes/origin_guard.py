@@ -8,8 +8,8 @@ target in user units or inside soft limits means nothing until the axis is homed
 * while an axis's origin is lost, an absolute move in user units and every move of an axis
   with soft limits are refused 409 with the rule ``HOME_FIRST_RULE``; origin searches and
   stops pass;
-* such a move reads the position first (``6{mt}``, one exchange), so a reset not seen yet is
-  seen now, before anything moves, and its checks use a reading no older than the
+* such a move reads the position first (``6{mt}``, one exchange; two when it reads 0 by
+  itself), so a reset not seen yet is seen now, before anything moves, and its checks use a reading no older than the
   controller's last reset or reconnect.
 
 At gateway start the origin is unknown (never homed as far as this process knows): moves are
@@ -72,8 +72,11 @@ class OriginGuard:
         self.check(ref, what, field)
         scheduler = self.gateway.scheduler(ref.loop)
         result = await scheduler.submit(ref.body, [cmd.position(ref.motor)], motor=None)
-        self.check(ref, what, field)
         axis = self.gateway.state.axis(ref.loop, ref.body, ref.motor)
+        if axis.zero_from is not None:  # 0 by itself: once more, to tell a reset from noise
+            result = await scheduler.submit(ref.body, [cmd.position(ref.motor)], motor=None)
+            axis = self.gateway.state.axis(ref.loop, ref.body, ref.motor)
+        self.check(ref, what, field)
         if not isinstance(result.value, int) or axis.position is None:
             raise DeviceError(
                 f"the position of {ref.id} could not be read, so its origin and limits cannot "
