@@ -9,8 +9,8 @@ target in user units or inside soft limits means nothing until the axis is homed
   with soft limits are refused 409 with the rule ``HOME_FIRST_RULE``; origin searches and
   stops pass;
 * such a move reads the position first (``6{mt}``, one exchange; two when it reads 0 by
-  itself), so a reset not seen yet is seen now, before anything moves, and its checks use a reading no older than the
-  controller's last reset or reconnect.
+  itself), so a reset not seen yet is seen now, before anything moves, and its checks use a
+  reading no older than the controller's last reset or reconnect.
 
 At gateway start the origin is unknown (never homed as far as this process knows): moves are
 not refused then (docs/api-notes.md "Homed, origin lost").
