@@ -7,7 +7,10 @@ where the axes stand (§16). x has soft limits -40 .. 940 mm (0.01 mm a pulse).
 
 from __future__ import annotations
 
+import asyncio
+import json
 import logging
+from typing import Any
 
 import pytest
 
@@ -119,3 +122,34 @@ async def test_the_first_reading_after_a_reset_is_not_checked_against_the_old_po
         assert r.status_code == 409, r.text  # type: ignore[attr-defined]
         view = json_of(await api.client.get("/axes/gripper"))
         assert (view["origin"], view["position"], view["counter"]) == ("lost", 0, 0)
+
+
+async def test_the_feed_publishes_homed_in_the_axis_change_and_an_origin_event() -> None:
+    async with running_app(("1",)) as api:
+        feed = api.app.state.feed
+        client = feed.open(backlog=100_000)
+        client.subscribe(["axis:x", "event:origin"])
+        snapshot = json.loads(await client.get())
+        assert snapshot["type"] == "snapshot"
+        assert snapshot["axes"][0]["homed"] is False
+        r = await move(api, "x", 3000, "pulse")
+        assert r.status_code == 200  # type: ignore[attr-defined]
+        Controls(api.sim).power_cycle("1")
+        r = await move(api, "x", 10, "user")
+        assert r.status_code == 409  # type: ignore[attr-defined]
+
+        async def until_lost() -> tuple[dict[str, Any], dict[str, Any]]:
+            change: dict[str, Any] | None = None
+            while True:
+                message = json.loads(await client.get())
+                if message["type"] == "change" and "origin" in message["changed"]:
+                    change = message
+                elif message["type"] == "event" and message["kind"] == "origin":
+                    assert change is not None  # the view changes first, then the event
+                    return change, message
+
+        change, event = await asyncio.wait_for(until_lost(), 20)
+        assert "homed" in change["changed"] or change["data"]["homed"] is False
+        assert (change["data"]["origin"], change["data"]["homed"]) == ("lost", False)
+        assert event["resource"] == "axis:sim.1.1"
+        assert event["data"]["origin"] == "lost" and "reset" in event["data"]["cause"]
