@@ -3,8 +3,9 @@
 The RC-233 has no reset flag, no boot message and no reset counter; what a power cycle leaves
 that a host can see is (docs/manual-notes.md "How the gateway sees a controller reset"):
 
-* silence: a controller switched off answers nothing, while the rest of its loop does; one
-  that answers again after the poller found it silent is taken as reset (``SILENT_AND_BACK``);
+* silence: a controller switched off answers nothing. Silence alone is no proof (a noisy line
+  makes a controller miss a few polls too), so it only makes every earlier reading not current
+  (``StateCache.set_online``): a check reads the position again, and the counters tell;
 * its position counters: power-on starts both at 0 (§16: every RAM value at its initial
   value). Two readings of 0 in a row after a reading that was not 0, with nothing the
   gateway knows of that could have changed the counter in between (no motion seen or
@@ -31,7 +32,6 @@ from gateway.protocol.spec import Effect
 
 __all__ = [
     "COUNTER_RESTARTED",
-    "SILENT_AND_BACK",
     "OriginWriter",
     "axis_moving",
     "origin_accepted",
@@ -40,11 +40,6 @@ __all__ = [
     "origin_status",
 ]
 
-#: The cause of a reset concluded from a controller that fell silent and answered again.
-SILENT_AND_BACK = (
-    "the controller did not answer and answers again: it may have been switched off, and "
-    "power-on restarts its position counters at 0 (§16)"
-)
 #: The cause of a reset concluded from a counter that went to 0 by itself.
 COUNTER_RESTARTED = (
     "motor {motor}'s position counter reads 0 after {previous}, and nothing the gateway knows "

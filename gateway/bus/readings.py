@@ -16,7 +16,6 @@ from types import MappingProxyType
 from typing import Any, Protocol
 
 from gateway.bus.origin import (
-    SILENT_AND_BACK,
     origin_accepted,
     origin_position,
     origin_program,
@@ -124,9 +123,6 @@ class _Reading:
     def apply(self, value: ReplyValue | None, rejected: bool) -> None:
         ctl = self.cache.flags(self.loop, self.body)
         self.ctl(online=True, updated=self.now)
-        if ctl.online is False:  # silent, and answering again: it may have been switched off
-            self.cache.controller_reset(self.now, self.loop, self.body, SILENT_AND_BACK)
-            ctl = self.cache.flags(self.loop, self.body)
         if value is None and not rejected:  # '>' (a '>@' changed nothing, §10 ER)
             self.accepted(ctl)
         elif isinstance(value, StatusFlags):

@@ -41,7 +41,7 @@ from gateway.bus.events import (
     TransactionDone,
 )
 from gateway.bus.latches import error_motor, latch_errors, unlatch
-from gateway.bus.origin import SILENT_AND_BACK, axis_moving
+from gateway.bus.origin import axis_moving
 from gateway.bus.readings import apply_reply
 from gateway.bus.state_types import (
     AXIS_ERRORS,
@@ -336,14 +336,13 @@ class StateCache:
     def set_online(self, loop: str, body: str, online: bool, now: float) -> None:
         """The poller found the controller answering (or not): off and back, it has reloaded
         its settings from the EEPROM (§16), EP among them."""
-        back = online and self.flags(loop, body).online is False
         self.write_controller(now, loop, body, online=online, signed_positions=None)
-        if back:
-            self.controller_reset(now, loop, body, SILENT_AND_BACK)
         if not online:  # switched off: nothing moves; power-on resets the selection (§16)
             self.write_controller(now, loop, body, moving=False, selection_confirmed=False)
             for m in MOTORS:
-                self.write_axis(now, loop, body, m, stale=True)
+                # It may be switched off and on meanwhile: nothing read before counts for a
+                # check (the counters will tell whether it was reset, ``gateway.bus.origin``).
+                self.write_axis(now, loop, body, m, stale=True, position_current=False)
 
     def set_framing(self, loop: str, body: str, framing: Framing, now: float) -> None:
         """The framing the scheduler uses for the controller (it owns EE/EL/ER/SUM)."""

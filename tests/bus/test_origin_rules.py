@@ -7,7 +7,6 @@ the serial path.
 
 from __future__ import annotations
 
-from gateway.bus.origin import SILENT_AND_BACK
 from gateway.bus.state import StateCache
 from gateway.bus.state_types import Origin
 from gateway.protocol.registry import parse
@@ -93,15 +92,18 @@ def test_a_counter_at_zero_after_a_move_a_preset_or_a_program_is_no_reset() -> N
     assert cache.axis(LOOP, "1", 1).homed
 
 
-def test_a_controller_silent_and_back_has_lost_its_origins() -> None:
+def test_a_controller_silent_and_back_is_read_again_and_its_counters_tell() -> None:
     cache = StateCache()
     homed(cache)
+    reply(cache, "61", "00004000", 1.0)
     cache.set_online(LOOP, "1", False, 5.0)
-    reply(cache, "", "0", 6.0)  # answering again
+    assert not cache.axis(LOOP, "1", 1).position_current  # no check may use it any more
+    reply(cache, "", "0", 6.0)  # answering again: silence alone is no proof of a reset
+    assert cache.axis(LOOP, "1", 1).homed
+    reply(cache, "61", "00000000", 6.1)  # power-on restarted the counters
+    reply(cache, "61", "00000000", 6.2)
     ctl = cache.controller(LOOP, "1")
-    assert ctl.reset_cause == SILENT_AND_BACK and ctl.reset_at == 6.0
-    assert cache.axis(LOOP, "1", 1).origin is Origin.LOST
-    assert cache.axis(LOOP, "1", 2).origin is Origin.LOST
+    assert ctl.reset_at == 6.2 and cache.axis(LOOP, "1", 2).origin is Origin.LOST
 
 
 def test_after_a_reconnect_no_earlier_reading_is_current() -> None:
