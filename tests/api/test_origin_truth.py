@@ -153,3 +153,14 @@ async def test_the_feed_publishes_homed_in_the_axis_change_and_an_origin_event()
         assert (change["data"]["origin"], change["data"]["homed"]) == ("lost", False)
         assert event["resource"] == "axis:sim.1.1"
         assert event["data"]["origin"] == "lost" and "reset" in event["data"]["cause"]
+
+
+async def test_an_idle_controller_reset_is_seen_without_any_request() -> None:
+    async with running_app(("1",)) as api:
+        r = await move(api, "x", 3000, "pulse")
+        assert r.status_code == 200  # type: ignore[attr-defined]
+        events = len(api.events)
+        Controls(api.sim).power_cycle("1")
+        # The poller's next reading of 0 is read again at once, and the reset is seen.
+        await api.until(lambda: api.gateway.state.axis("sim", "1", 1).origin.value == "lost")
+        assert any(e.kind is EventKind.ORIGIN for e in api.events[events:])

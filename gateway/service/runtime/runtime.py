@@ -26,6 +26,7 @@ from gateway.bus.poll_plan import PollConfig
 from gateway.bus.poller import Poller, attach
 from gateway.bus.scheduler import LinkState, LoopScheduler
 from gateway.bus.state import StateCache
+from gateway.protocol.commands import position
 from gateway.protocol.framing import Series
 from gateway.protocol.reply_parser import UnsolicitedKind
 from gateway.service.config import GatewayConfig, LoopSettings
@@ -98,7 +99,12 @@ class Runtime:
         #: local/remote control of every controller, and the key switches' reader
         self.control = ControlStates(self.topology, self.events)
         #: the origin events and log lines (a controller reset, an origin found)
-        self.origins = OriginWatch(self.topology, self.state, self.events)
+        self.origins = OriginWatch(
+            self.topology,
+            self.state,
+            self.events,
+            read_position=lambda a: self.scheduler(a.loop).submit(a.body, position(a.motor)),
+        )
         self.key_switches = KeySwitchReader(self.topology, self.control, self.schedulers)
         if transports:
             raise ValueError(f"transports for loops not configured: {sorted(transports)}")
