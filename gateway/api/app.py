@@ -109,12 +109,14 @@ def create_app(gateway: Runtime, *, auth: AuthConfig) -> FastAPI:
         gateway.config.ws,
         control=gateway.control,
         loop_baud=lambda name: gateway.scheduler(name).timing.baud,
+        loop_adapter=lambda name: gateway.scheduler(name).transport.adapter,
     )
 
     install_log_redaction()  # no token in any log line, whoever prints it
 
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
+        await operations.restore()  # before the loops: what the last process left unended
         await gateway.start()
         try:
             yield
@@ -165,7 +167,7 @@ def create_app(gateway: Runtime, *, auth: AuthConfig) -> FastAPI:
     app.add_middleware(AxisReadPath, gateway=gateway, prefix=API_PREFIX)
     install_problem_handlers(app)
     install_security(app, auth)
-    install_idempotency(app)
+    install_idempotency(app, gateway.store)
     app.add_middleware(BodyGate)
     install_audit(app, audit)
     install_health_and_metrics(app, gateway)

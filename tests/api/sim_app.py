@@ -33,6 +33,7 @@ from gateway.service.operations.registry import Operations
 from gateway.service.roles import Role
 from gateway.service.runtime.runtime import Runtime
 from gateway.service.runtime.simulated import SIM_LOOP, simulated_config
+from gateway.service.store import StateStore
 from gateway.sim.cli import build_loop
 from gateway.sim.clock import RecordKind, SimClock
 from gateway.sim.loop import SimLoop
@@ -148,6 +149,7 @@ async def running_app(
     audit_log: Path | None = None,
     config: GatewayConfig | None = None,
     cache_last: bool = False,
+    store: StateStore | None = None,
 ) -> AsyncIterator[Api]:
     """The app on a simulated loop, started and identified; closed after the block.
 
@@ -161,7 +163,7 @@ async def running_app(
     # The in-process line of ``serve --simulate``: a port reopened at another rate (POST
     # /loops/{loop}/baud) sets the simulated line's, and controllers at another rate hear noise.
     line = sim_line(sim)
-    gateway = Runtime(config, transports={SIM_LOOP: line}, time_scale=scale)
+    gateway = Runtime(config, transports={SIM_LOOP: line}, time_scale=scale, store=store)
     if roles:
         book = TokenBook(TokenEntry(n, role, hash_token(t)) for n, (t, role) in TOKENS.items())
         app = create_app(gateway, auth=AuthConfig(book))

@@ -98,9 +98,7 @@ async def client(
             async with app.router.lifespan_context(app):
                 transport = httpx.ASGITransport(app=app)
                 base = "http://gateway.test/api/v1"
-                async with httpx.AsyncClient(
-                    transport=transport, base_url=base, timeout=30
-                ) as c:
+                async with httpx.AsyncClient(transport=transport, base_url=base, timeout=30) as c:
                     yield c
         finally:
             ser2net.send_signal(signal.SIGTERM)
