@@ -206,10 +206,11 @@ class MetricTable:
         stamp = _stamp(state.updated, now)
         known = not state.stale
         position = state.position if known else None
+        lost = state.origin.value == "lost"  # user units mean nothing until homed again
         errors = (state.limit_error, state.emergency, state.command_error, state.step_out)
         out: Values = {
             base + "Position": (position, stamp),
-            base + "Position User": (ref.to_user(position), stamp),
+            base + "Position User": (None if lost else ref.to_user(position), stamp),
             base + "Target": (self.targets.get(ref.id), now),
             base + "Moving": (state.moving if known else None, stamp),
             base + "Stale": (state.stale, stamp),

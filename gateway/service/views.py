@@ -14,7 +14,14 @@ from typing import Literal
 from pydantic import BaseModel, Field, TypeAdapter
 
 from gateway.bus.counters import CountersSnapshot
-from gateway.bus.state_types import AxisState, ControllerState, ErrorKind, Latch, LoopState
+from gateway.bus.state_types import (
+    AxisState,
+    ControllerState,
+    ErrorKind,
+    Latch,
+    LoopState,
+    Origin,
+)
 from gateway.service.control import ControlView
 from gateway.service.topology import AxisRef, ControllerRef
 from gateway.transport.usb_latency import LATENCY_TIMER_LIMIT_MS, AdapterReport
@@ -79,7 +86,10 @@ class AxisView(BaseModel):
         description="the raw 24-bit position counter as last read (0..16777215; in EP0 the "
         "controller's own reading)"
     )
-    position_user: float | None = Field(description="position in `unit`")
+    position_user: float | None = Field(
+        description="position in `unit`; null while the origin is lost (a controller reset: "
+        "the counter no longer counts from the machine's origin)"
+    )
     unit: str = Field(description="the axis's user unit (mm, deg ...; `pulse` when it has none)")
     units: dict[str, str] = Field(
         description="the unit of every position field of this view: position in pulse, "
@@ -216,7 +226,7 @@ def axis_view(ref: AxisRef, state: AxisState, control: ControlView) -> AxisView:
         motor=ref.motor,
         position=state.position,
         counter=state.counter,
-        position_user=ref.to_user(state.position),
+        position_user=None if state.origin is Origin.LOST else ref.to_user(state.position),
         unit=ref.unit,
         units=axis_units(ref),
         moving=state.moving,

@@ -70,6 +70,7 @@ async def test_a_power_cycle_loses_the_origin_and_moves_that_need_it_wait_for_a_
         for axis in ("x", "y"):
             view = json_of(await api.client.get(f"/axes/{axis}"))
             assert (view["homed"], view["origin"]) == (False, "lost"), view
+            assert view["position_user"] is None  # mm from an origin that is gone: unknown
         events = [e for e in api.events if e.kind is EventKind.ORIGIN]
         assert [e.data["origin"] for e in events if e.data["axis"] == "sim.1.1"] == [
             "homed",
