@@ -107,13 +107,22 @@ class ConflictError(ServiceError):
     """The resource cannot take the request now (moving, leased by another client, busy).
 
     ``field`` names the request field or resource the conflict is about, ``holder`` the client
-    holding a lease (None when the conflict is not a lease).
+    holding a lease (None when the conflict is not a lease), ``rule`` the rule that refuses
+    the request now, when it is one (``home first``).
     """
 
-    def __init__(self, message: str, *, field: str | None = None, holder: str | None = None):
+    def __init__(
+        self,
+        message: str,
+        *,
+        field: str | None = None,
+        holder: str | None = None,
+        rule: str | None = None,
+    ):
         super().__init__(message)
         self.field = field
         self.holder = holder
+        self.rule = rule
 
 
 class DeviceError(ServiceError):

@@ -29,7 +29,13 @@ from gateway.api import (
     routes_session,
     ws,
 )
-from gateway.api.audit import AuditLog, control_entry, install_audit, resolution_entry
+from gateway.api.audit import (
+    AuditLog,
+    control_entry,
+    install_audit,
+    origin_entry,
+    resolution_entry,
+)
 from gateway.api.auth_failures import AuthFailures
 from gateway.api.body_gate import BodyGate
 from gateway.api.dashboard import install_dashboard
@@ -49,6 +55,7 @@ from gateway.service.baud import BaudChanger
 from gateway.service.config import GatewayConfig
 from gateway.service.control import ControlChange
 from gateway.service.controllers.service import ControllerService
+from gateway.service.events import ServiceEvent
 from gateway.service.feed import Feed
 from gateway.service.leases import Leases
 from gateway.service.operations.registry import Operations
@@ -106,6 +113,13 @@ def create_app(gateway: Runtime, *, auth: AuthConfig) -> FastAPI:
             audit.record(control_entry(change, API_PREFIX))
 
     gateway.control.changes.subscribe(audit_key_switch)
+
+    def audit_origin(event: ServiceEvent) -> None:  # a reset seen on the line: no request
+        entry = origin_entry(event, API_PREFIX)
+        if entry is not None:
+            audit.record(entry)
+
+    gateway.events.subscribe(audit_origin)
     feed = Feed(
         gateway.topology,
         gateway.state,

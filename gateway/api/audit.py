@@ -40,6 +40,7 @@ from gateway.errors import InvalidInputError
 from gateway.service.audit import AuditUnavailable, utc_now
 from gateway.service.audit.bounds import VALUE_LIMIT
 from gateway.service.control import ControlChange
+from gateway.service.events import EventKind, ServiceEvent
 from gateway.service.operations.types import Operation
 from gateway.service.roles import Role
 
@@ -52,6 +53,7 @@ __all__ = [
     "audit_note",
     "control_entry",
     "install_audit",
+    "origin_entry",
     "resolution_entry",
     "router",
 ]
@@ -109,6 +111,23 @@ def control_entry(change: ControlChange, prefix: str) -> dict[str, Any]:
         "previous": change.previous.value,
         "cause": change.cause,
         "control": change.view.model_dump(mode="json"),
+    }
+
+
+def origin_entry(event: ServiceEvent, prefix: str) -> dict[str, Any] | None:
+    """The entry of an origin lost by a controller reset (no request made it: the gateway
+    saw it); None for other events."""
+    if event.kind is not EventKind.ORIGIN or event.data.get("origin") != "lost":
+        return None
+    return {
+        "time": utc_now(),
+        "token": None,
+        "method": "DEVICE",
+        "path": f"{prefix}/axes/{event.data.get('axis')}",
+        "event": "origin_lost",
+        "result": "lost",
+        "controller": event.data.get("controller"),
+        "cause": event.data.get("cause"),
     }
 
 

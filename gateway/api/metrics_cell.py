@@ -151,14 +151,29 @@ class CellMetrics:
             labels = {"axis": ref.id, "name": ref.name or "", "controller": ref.controller_id,
                       "unit": ref.unit, "units_per_pulse": repr(ref.units_per_pulse)}  # fmt: skip
             out.sample("rc233_axis_info", labels, 1)
-        out.family("rc233_axis_position_pulses", "gauge", "Position counter; absent when stale.")
+        out.family(
+            "rc233_axis_position_pulses",
+            "gauge",
+            "Position (the counter followed through its wraps); absent when stale.",
+        )
         for ref, state in axes:
             if not state.stale and state.position is not None:
                 out.sample("rc233_axis_position_pulses", {"axis": ref.id}, state.position)
         out.family("rc233_axis_moving", "gauge", "1 while the motor turns; absent when stale.")
         for ref, state in axes:
-            if not state.stale:
+            if not state.stale and state.moving is not None:
                 out.sample("rc233_axis_moving", {"axis": ref.id}, int(state.moving))
+        out.family(
+            "rc233_axis_homed", "gauge", "1 while the origin is known (homed, no reset since)."
+        )
+        for ref, state in axes:
+            out.sample("rc233_axis_homed", {"axis": ref.id}, int(state.homed))
+        out.family(
+            "rc233_axis_counter", "gauge", "The raw 24-bit position counter; absent when stale."
+        )
+        for ref, state in axes:
+            if not state.stale and state.counter is not None:
+                out.sample("rc233_axis_counter", {"axis": ref.id}, state.counter)
         out.family("rc233_axis_stale", "gauge", "1 when no fresh reading came for a while.")
         for ref, state in axes:
             out.sample("rc233_axis_stale", {"axis": ref.id}, int(state.stale))

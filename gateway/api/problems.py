@@ -245,6 +245,7 @@ def _problem_for(exc: Exception) -> tuple[Problem, dict[str, str]] | None:
             detail=str(exc),
             field=exc.field,
             holder=exc.holder,
+            rule=exc.rule,
         ), {}
     if isinstance(exc, DeviceError):
         return Problem(

@@ -148,7 +148,7 @@ class Poller:
         return self._state.flags(self.loop, body).online
 
     def _moving(self, body: str) -> bool:
-        return self._state.flags(self.loop, body).moving
+        return bool(self._state.flags(self.loop, body).moving)
 
     def handle(self, event: BusEvent) -> None:
         """Take one scheduler event (subscribe this to its ``EventBus``, in any order)."""
@@ -241,7 +241,7 @@ class Poller:
         """The next due time of ``job``, from what the cache knows of the controller now."""
         ctl = self._state.flags(self.loop, plan.body)
         self._plan.schedule(
-            plan, job, self.now(), online=ctl.online, moving=ctl.moving, identified=identified
+            plan, job, self.now(), online=ctl.online, moving=bool(ctl.moving), identified=identified
         )
 
     async def _run_job(self, plan: BodyPlan, job: Job) -> None:

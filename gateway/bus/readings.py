@@ -15,7 +15,13 @@ from dataclasses import replace
 from types import MappingProxyType
 from typing import Any, Protocol
 
-from gateway.bus.state_types import MOTORS, ControllerState, ErrorKind
+from gateway.bus.origin import (
+    origin_accepted,
+    origin_position,
+    origin_program,
+    origin_status,
+)
+from gateway.bus.state_types import MOTORS, AxisState, ControllerState, ErrorKind
 from gateway.protocol import commands
 from gateway.protocol.framing import POWER_ON
 from gateway.protocol.models import Command
@@ -42,8 +48,18 @@ class StateWriter(Protocol):
         """One controller as last changed (its ``updated`` may lag)."""
         ...
 
+    def axis(self, loop: str, body: str, motor: int) -> AxisState:
+        """One axis."""
+        ...
+
     def write_controller(self, now: float, loop: str, body: str, **values: Any) -> None:
         """Set fields of one controller."""
+        ...
+
+    def controller_reset(
+        self, now: float, loop: str, body: str, cause: str, *, read: int | None = None
+    ) -> None:
+        """A reset of controller ``body`` was seen (``gateway.bus.origin``)."""
         ...
 
     def write_axis(self, now: float, loop: str, body: str, motor: int, **values: Any) -> None:
@@ -115,6 +131,7 @@ class _Reading:
             self.condition(ctl, value)
         elif isinstance(value, ProgramState):
             self.ctl(program=value)
+            origin_program(self.cache, self.loop, self.body, value, self.now)
             if value is ProgramState.ERROR:  # GSS: reading E clears it to 0 (§10 GSS)
                 self.latch([ErrorKind.PROGRAM])
         elif isinstance(value, Version):
@@ -128,6 +145,7 @@ class _Reading:
 
     def accepted(self, ctl: ControllerState) -> None:
         form = self.command.form
+        origin_accepted(self.cache, self.loop, self.body, self.command, self.motor(ctl), self.now)
         switch = commands.FRAMING_SETTINGS.get(form)
         if form is commands.SELECT_MOTOR and not ctl.moving:  # not while moving (§10 F)
             self.ctl(selected_motor=self.command.motor, selection_confirmed=False)
@@ -165,7 +183,10 @@ class _Reading:
             seen = self.cache.status_since_condition
             seen[self.loop, self.body] = seen.get((self.loop, self.body), frozenset()) | kinds
         for m in MOTORS:
-            self.axis(m, updated=self.now, stale=False)
+            # An axis whose position was never read stays stale: nothing is claimed unread.
+            unread = self.cache.axis(self.loop, self.body, m).position is None
+            self.axis(m, updated=self.now, stale=unread)
+        origin_status(self.cache, self.loop, self.body, flags, self.now)
 
     def condition(self, ctl: ControllerState, flags: ConditionFlags) -> None:
         # 9 form I clears bits 0-3 after the reply (§10 9 ①); bit 6 stays (§10 9 ⑤).
@@ -193,7 +214,7 @@ class _Reading:
         if form.reads_position:
             motor = self.motor(ctl)
             if motor is not None:
-                self.axis(motor, position=value, updated=self.now, stale=False)
+                origin_position(self.cache, self.loop, self.body, motor, value, self.now)
         elif form is commands.CONDITION_BIT:
             self.condition_bit(ctl, int(self.command.params()["bit"]), value)
         elif form is commands.MODE:

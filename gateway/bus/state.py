@@ -41,6 +41,7 @@ from gateway.bus.events import (
     TransactionDone,
 )
 from gateway.bus.latches import error_motor, latch_errors, unlatch
+from gateway.bus.origin import axis_moving
 from gateway.bus.readings import apply_reply
 from gateway.bus.state_types import (
     AXIS_ERRORS,
@@ -51,6 +52,7 @@ from gateway.bus.state_types import (
     ErrorKind,
     Latch,
     LoopState,
+    Origin,
     Snapshot,
 )
 from gateway.protocol.framing import Framing
@@ -198,7 +200,6 @@ class StateCache:
     def _derive_axes(self, now: float, loop: str, body: str) -> None:
         """The axis fields that follow from the controller: moving, selected, errors."""
         ctl = self._ctls[loop, body]  # its updated does not matter here
-        moving_motor = ctl.selected_motor if ctl.moving else None
         for m in MOTORS:
             shows = {k: m in ctl.latched[k].axes for k in AXIS_ERRORS if k in ctl.latched}
             step_out = bool(ctl.condition_bits.get(6)) and error_motor(ctl) in (None, m)
@@ -207,7 +208,7 @@ class StateCache:
                 loop,
                 body,
                 m,
-                moving=moving_motor == m,
+                moving=axis_moving(ctl, m),
                 selected=ctl.selected_motor == m,
                 step_out=step_out,
                 limit_error=shows.get(ErrorKind.LIMIT, False),
@@ -315,6 +316,7 @@ class StateCache:
         it came back (the scheduler's probes, ``97``: the selection) is current, and kept."""
         self._set_loop(now, loop, up=up, cause=None if up else cause)
         if up:
+            self._reconnected(now, loop)
             return
         for name, body in [k for k in self._ctls if k[0] == loop]:
             # Nothing a silent loop said is current: not even that a motor moves (a moving
@@ -324,7 +326,7 @@ class StateCache:
                 name,
                 body,
                 online=None,
-                moving=False,
+                moving=None,
                 selection_confirmed=False,
                 signed_positions=None,
             )
@@ -338,7 +340,9 @@ class StateCache:
         if not online:  # switched off: nothing moves; power-on resets the selection (§16)
             self.write_controller(now, loop, body, moving=False, selection_confirmed=False)
             for m in MOTORS:
-                self.write_axis(now, loop, body, m, stale=True)
+                # It may be switched off and on meanwhile: nothing read before counts for a
+                # check (the counters will tell whether it was reset, ``gateway.bus.origin``).
+                self.write_axis(now, loop, body, m, stale=True, position_current=False)
 
     def set_framing(self, loop: str, body: str, framing: Framing, now: float) -> None:
         """The framing the scheduler uses for the controller (it owns EE/EL/ER/SUM)."""
@@ -373,3 +377,36 @@ class StateCache:
             updated = self._fresh.get(key, axis.updated)
             if updated is None or now - updated > self.stale_after:
                 self.write_axis(now, loop, body, m, stale=True)
+
+    # ------------------------------------------------------------------ origin
+    # A controller reset (power cycle) restarts both counters at 0 wherever the axes stand:
+    # the origin is lost until an origin search ends (DESIGN invariant 16,
+    # docs/manual-notes.md "How the gateway sees a controller reset").
+
+    def controller_reset(
+        self, now: float, loop: str, body: str, cause: str, *, read: int | None = None
+    ) -> None:
+        """A reset of controller ``body`` was seen (``cause``): both origins are lost, and
+        nothing read before ``now`` counts. ``read``: the motor whose reading (0) showed it,
+        kept; the other counter is not known until read."""
+        self.write_controller(now, loop, body, reset_at=now, reset_cause=cause)
+        for m in MOTORS:
+            unread = {} if m == read else {"position": None, "counter": None, "stale": True}
+            self.write_axis(
+                now,
+                loop,
+                body,
+                m,
+                origin=Origin.LOST,
+                homing=False,
+                counting=False,
+                position_current=m == read,
+                **unread,
+            )
+
+    def _reconnected(self, now: float, loop: str) -> None:
+        """The line came back: nothing read before counts for a check (the controllers may
+        have been reset meanwhile; a reading will tell, ``readings``)."""
+        for name, body in [k for k in self._ctls if k[0] == loop]:
+            for m in MOTORS:
+                self.write_axis(now, name, body, m, position_current=False)

@@ -31,6 +31,7 @@ __all__ = [
     "ErrorKind",
     "Latch",
     "LoopState",
+    "Origin",
     "Snapshot",
 ]
 
@@ -64,13 +65,33 @@ class Latch:
     source: str  # the command (form key) whose reply reported it last, e.g. '""'
 
 
+class Origin(StrEnum):
+    """Whether the counter's 0 is the machine's origin (DESIGN invariant 16)."""
+
+    UNKNOWN = "unknown"  # no origin search seen since the gateway started
+    HOMED = "homed"  # an origin search seen to end, no reset since
+    LOST = "lost"  # a controller reset seen: the counter restarted at 0 where the axis stood
+
+
 @dataclass(frozen=True)
 class AxisState:
     """One motor of one controller as the gateway last saw it."""
 
     motor: int
-    position: int | None = None  # as the controller reports it (EP0 unsigned, EP1 signed)
-    moving: bool = False
+    #: pulses: the counter followed through its wraps (``gateway.bus.counting``), so a
+    #: counter that wrapped below 0 in EP0 is the negative position it is
+    position: int | None = None
+    counter: int | None = None  # the raw 24-bit counter of the last reading (0..16,777,215)
+    #: the position was read since the controller's last reset or the line's reconnect
+    position_current: bool = False
+    moving: bool | None = None  # None: not read yet, or the moving motor is not known
+    origin: Origin = Origin.UNKNOWN
+    homing: bool = False  # an origin search was accepted and has not ended yet
+    #: the counter may have changed since the last reading: motion, a preset, a search
+    counting: bool = False
+    #: the last reading was 0 by itself, from this position: a reset if the next says 0 too
+    #: (one reading could be a reply bent on the line)
+    zero_from: int | None = None
     sensors: SensorBits | None = None
     selected: bool = False  # F selects this motor (§10 F)
     step_out: bool = False  # 9 bit 6: held by the device until homing or RD (§10 9 ⑤)
@@ -79,6 +100,11 @@ class AxisState:
     command_error: bool = False  # latched
     updated: float | None = None  # last fresh status or position
     stale: bool = True  # no fresh data for ``StateCache.stale_after`` seconds
+
+    @property
+    def homed(self) -> bool:
+        """The origin is known: an origin search ended and no reset was seen since."""
+        return self.origin is Origin.HOMED
 
 
 @dataclass(frozen=True)
@@ -94,7 +120,10 @@ class ControllerState:
     condition: ConditionFlags | None = None  # the last 9 (form I) reply as read
     condition_bits: Mapping[int, int] = field(default_factory=lambda: MappingProxyType({}))
     program: ProgramState | None = None
-    moving: bool = False  # "" bit 0
+    moving: bool | None = None  # "" bit 0; None: not read yet
+    #: when the gateway last saw the controller reset (``gateway.bus.origin``)
+    reset_at: float | None = None
+    reset_cause: str | None = None  # why the gateway concluded the last reset
     selected_motor: int | None = None
     #: False while the selection is only inferred from a '>' (which does not mean the command
     #: was valid, §9-2) or in doubt; True once read back with 9, 97 or F, or taken on ER1's

@@ -12,7 +12,8 @@ measured as ``rc233_loop_busy_seconds_total``); ``MQTT/Superseded``.
 Device metrics: ``Online``, ``Mode``, ``Version``, ``Program``, ``Moving``,
 ``Errors/<kind>`` for the controller-only latches, and per axis (named as configured, else
 ``m1``/``m2``) ``Axis/<a>/Position`` (pulses), ``Position User`` (``engUnit`` property),
-``Target``, ``Moving``, ``Stale``, ``Errors/<kind>``, ``Soft Min``, ``Soft Max``; with DCMD
+``Target``, ``Moving``, ``Stale``, ``Errors/<kind>``, ``Soft Min``, ``Soft Max``, ``Homed``
+(the origin is known), ``Counter`` (the raw 24-bit position counter); with DCMD
 enabled also ``Axis/<a>/Stop``, ``Axis/<a>/Errors/Ack`` and ``Command/Token``.
 
 Quality (DESIGN invariant 11): what the gateway does not know is ``None`` here (``is_null`` on
@@ -136,6 +137,8 @@ class MetricTable:
                     self._add(table, dev, base + f"Errors/{kind_name}", DataType.BOOLEAN)
                 self._add(table, dev, base + "Soft Min", DataType.DOUBLE, unit)
                 self._add(table, dev, base + "Soft Max", DataType.DOUBLE, unit)
+                self._add(table, dev, base + "Homed", DataType.BOOLEAN)
+                self._add(table, dev, base + "Counter", DataType.INT64, {"engUnit": "pulse"})
                 if self.commands:
                     self._add(table, dev, base + "Stop", DataType.BOOLEAN)
                     self._add(table, dev, base + "Errors/Ack", DataType.BOOLEAN)
@@ -203,15 +206,18 @@ class MetricTable:
         stamp = _stamp(state.updated, now)
         known = not state.stale
         position = state.position if known else None
+        lost = state.origin.value == "lost"  # user units mean nothing until homed again
         errors = (state.limit_error, state.emergency, state.command_error, state.step_out)
         out: Values = {
             base + "Position": (position, stamp),
-            base + "Position User": (ref.to_user(position), stamp),
+            base + "Position User": (None if lost else ref.to_user(position), stamp),
             base + "Target": (self.targets.get(ref.id), now),
             base + "Moving": (state.moving if known else None, stamp),
             base + "Stale": (state.stale, stamp),
             base + "Soft Min": (ref.soft_min, now),
             base + "Soft Max": (ref.soft_max, now),
+            base + "Homed": (state.homed, stamp),
+            base + "Counter": (state.counter if known else None, stamp),
         }
         for kind_name, on in zip(AXIS_ERROR_KINDS, errors, strict=True):
             out[base + f"Errors/{kind_name}"] = (on, stamp)

@@ -27,6 +27,7 @@ class EventKind(StrEnum):
     LINK = "link"  # a loop went down or came up
     ERROR = "error"  # an error latched or acknowledged
     CONTROL = "control"  # a controller went local or remote (or why it is local changed)
+    ORIGIN = "origin"  # an axis's origin was lost (controller reset) or found (homed)
 
 
 @dataclass(frozen=True)

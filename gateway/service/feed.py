@@ -360,6 +360,8 @@ class Feed:
             axes = [str(a) for a in event.data.get("axes", ())]
             for topic in (f"controller:{controller}", *(f"axis:{a}" for a in axes)):
                 self._refresh(topic, self.cache.seq)
+        elif event.kind is EventKind.ORIGIN:  # the axis's view changes first, then the event
+            self._refresh(f"axis:{event.data.get('axis')}", self.cache.seq)
         kind = str(event.kind)
         topic = f"event:{kind}"
         body = {"type": "event", "topic": topic, "kind": kind, "resource": event.topic}

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 from gateway.errors import InvalidInputError, NotFoundError
 from gateway.protocol.framing import Series
+from gateway.protocol.params import UNSIGNED_MAX
 from gateway.service.config import AxisSettings, GatewayConfig, LoopSettings
 
 __all__ = ["AxisRef", "ControllerRef", "LoopRef", "Topology"]
@@ -67,12 +68,13 @@ class AxisRef:
         return int(nearest)
 
     def check_target(self, pulses: int, field: str) -> None:
-        """Refuse a target outside the soft limits or the position counter (§7-4)."""
-        if not POSITION_MIN <= pulses <= POSITION_MAX:
+        """Refuse a target outside the soft limits or any view of the position counter
+        (§7-4); the controller's own format narrows it (``position_format.check_target``)."""
+        if not POSITION_MIN <= pulses <= UNSIGNED_MAX:
             raise InvalidInputError(
                 f"target {pulses} pulses is outside the position counter",
                 field=field,
-                rule=f"targets lie in {POSITION_MIN}..{POSITION_MAX} pulses (§7-4)",
+                rule=f"targets lie in {POSITION_MIN}..{UNSIGNED_MAX} pulses (§7-4)",
             )
         user = pulses * self.units_per_pulse
         low, high = self.soft_min, self.soft_max

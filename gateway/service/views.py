@@ -14,7 +14,14 @@ from typing import Literal
 from pydantic import BaseModel, Field, TypeAdapter
 
 from gateway.bus.counters import CountersSnapshot
-from gateway.bus.state_types import AxisState, ControllerState, ErrorKind, Latch, LoopState
+from gateway.bus.state_types import (
+    AxisState,
+    ControllerState,
+    ErrorKind,
+    Latch,
+    LoopState,
+    Origin,
+)
 from gateway.service.control import ControlView
 from gateway.service.topology import AxisRef, ControllerRef
 from gateway.transport.usb_latency import LATENCY_TIMER_LIMIT_MS, AdapterReport
@@ -70,15 +77,43 @@ class AxisView(BaseModel):
     loop: str
     controller: str = Field(description="the controller's id, loop.body")
     motor: Literal[1, 2]
-    position: int | None = Field(description="pulses, as the controller counts them")
-    position_user: float | None = Field(description="position in `unit`")
+    position: int | None = Field(
+        description="pulses: the controller's counter followed through its wraps, so a "
+        "counter that wrapped below 0 in unsigned management (EP0) is the negative position "
+        "it is (§7-4); null until read"
+    )
+    counter: int | None = Field(
+        description="the raw 24-bit position counter as last read (0..16777215; in EP0 the "
+        "controller's own reading)"
+    )
+    position_user: float | None = Field(
+        description="position in `unit`; null while the origin is lost (a controller reset: "
+        "the counter no longer counts from the machine's origin)"
+    )
     unit: str = Field(description="the axis's user unit (mm, deg ...; `pulse` when it has none)")
     units: dict[str, str] = Field(
         description="the unit of every position field of this view: position in pulse, "
         "position_user, soft_min and soft_max in `unit`",
-        examples=[{"position": "pulse", "position_user": "mm", "soft_min": "mm", "soft_max": "mm"}],
+        examples=[
+            {
+                "position": "pulse",
+                "counter": "pulse",
+                "position_user": "mm",
+                "soft_min": "mm",
+                "soft_max": "mm",
+            }
+        ],
     )
-    moving: bool
+    moving: bool | None = Field(description="null: not read yet, or which motor moves is not known")
+    homed: bool = Field(
+        description="the origin is known: an origin search was seen to end and no controller "
+        "reset since (at gateway start: false, the origin is unknown)"
+    )
+    origin: Literal["unknown", "homed", "lost"] = Field(
+        description="unknown: no origin search seen since the gateway started; homed; lost: a "
+        "controller reset was seen (moves in user units and on axes with soft limits are "
+        "refused until homed)"
+    )
     selected: bool = Field(description="F selects this motor (§10 F)")
     sensors: Sensors | None
     errors: AxisErrors
@@ -114,7 +149,7 @@ class ControllerView(BaseModel):
     online: bool | None = Field(description="None: not probed yet")
     version: str | None
     mode: int | None = Field(description="0 pulse, 1 encoder, 2 servo (§10 E)")
-    moving: bool
+    moving: bool | None = Field(description="null: not read yet")
     selected_motor: int | None
     program: str | None = Field(description="GSS: 1 running, 0 ended, P paused, E error")
     communication_error: bool
@@ -173,6 +208,7 @@ def axis_units(ref: AxisRef) -> dict[str, str]:
     """Which unit each position field of an axis's view is in (pulses or the user unit)."""
     return {
         "position": "pulse",
+        "counter": "pulse",
         "position_user": ref.unit,
         "soft_min": ref.unit,
         "soft_max": ref.unit,
@@ -189,10 +225,13 @@ def axis_view(ref: AxisRef, state: AxisState, control: ControlView) -> AxisView:
         controller=ref.controller_id,
         motor=ref.motor,
         position=state.position,
-        position_user=ref.to_user(state.position),
+        counter=state.counter,
+        position_user=None if state.origin is Origin.LOST else ref.to_user(state.position),
         unit=ref.unit,
         units=axis_units(ref),
         moving=state.moving,
+        homed=state.homed,
+        origin=state.origin.value,
         selected=state.selected,
         sensors=None
         if sensors is None

@@ -80,3 +80,25 @@ async def test_head_metrics_answers_without_a_body() -> None:
 def _python(fams):  # type: ignore[no-untyped-def]
     ((_, labels),) = list(fams["rc233_build_info"].samples)
     return dict(labels)["python"]
+
+
+async def test_homed_is_a_series_of_every_axis_and_a_reset_clears_it() -> None:
+    async with running_app(("1",)) as api:
+        fams = await _scrape(api)
+        assert value(fams, "rc233_axis_homed", axis="sim.1.1") == 0  # not known at start
+        await api.client.post("/axes/x/move", json={"position": 2000, "unit": "pulse"},
+                              params={"wait": "true"})  # fmt: skip
+        r = await api.client.post("/axes/x/home", json={"method": "0"},
+                                  params={"wait": "true", "timeout": "30"})  # fmt: skip
+        assert r.status_code == 200, r.text
+        fams = await _scrape(api)
+        assert value(fams, "rc233_axis_homed", axis="sim.1.1") == 1
+        assert value(fams, "rc233_axis_homed", axis="sim.1.2") == 0
+        assert value(fams, "rc233_axis_counter", axis="sim.1.1") == 0
+        await api.client.post("/axes/x/move", json={"position": 3000, "unit": "pulse"},
+                              params={"wait": "true"})  # fmt: skip
+        Controls(api.sim).power_cycle("1")
+        for _ in range(2):  # two readings of 0 by itself show it (one could be noise)
+            await api.client.get("/axes/x", params={"fresh": "true"})
+        fams = await _scrape(api)
+        assert value(fams, "rc233_axis_homed", axis="sim.1.1") == 0

@@ -78,6 +78,7 @@ async def test_every_position_of_a_view_says_its_unit() -> None:
         axis = json_of(await api.client.get("/axes/x"))
         assert axis["units"] == {
             "position": "pulse",
+            "counter": "pulse",
             "position_user": "mm",
             "soft_min": "mm",
             "soft_max": "mm",

@@ -165,6 +165,8 @@ def test_a_snapshot_is_as_of_the_latest_change() -> None:
 
 def test_axes_go_stale_without_fresh_data() -> None:
     cache = StateCache(stale_after=3.0)
+    reply(cache, "61", "00000000", 9.0)
+    reply(cache, "62", "00000000", 9.0)
     reply(cache, "", "0", 10.0)
     assert not cache.axis(LOOP, "1", 1).stale
     cache.refresh(12.0)

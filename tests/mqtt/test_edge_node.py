@@ -20,6 +20,7 @@ NODE_METRICS = (
 AXIS_METRICS = (
     "Position", "Position User", "Target", "Moving", "Stale", "Errors/limit_error",
     "Errors/emergency_stop", "Errors/command_error", "Errors/step_out", "Soft Min", "Soft Max",
+    "Homed", "Counter",
 )  # fmt: skip
 
 
@@ -49,6 +50,7 @@ async def test_births_carry_every_metric_and_ddata_follows_a_move(
         dbirth = await central.wait_for("DBIRTH", node="cell1", device="gantry")
         assert metric(dbirth, "Axis/x/Position User").properties == {"engUnit": "mm"}
         assert dbirth.values["Axis/x/Soft Max"] == 940.0
+        assert dbirth.values["Axis/x/Homed"] is False  # at start the origin is not known
         # once read, the device's values are there (report by exception: the DDATA that
         # follow the birth carry only what moved)
         await central.wait_for(

@@ -51,4 +51,4 @@ def test_soft_limits_and_the_position_counter_refuse_targets(topology: Topology)
     assert caught.value.rule == "soft limits [-40, 940] mm (configuration)"
     gripper = topology.axis("gripper")
     with pytest.raises(InvalidInputError, match="outside the position counter"):
-        gripper.check_target(8_388_608, "position")  # §7-4: 24 bits signed
+        gripper.check_target(16_777_216, "position")  # §7-4: 24 bits (the format narrows it)

@@ -11,6 +11,7 @@ known, ``EP`` is read once (refused while moving, and in mode 1).
 
 from __future__ import annotations
 
+from gateway.bus.counting import counter_of, target_range, target_range_rule
 from gateway.errors import InvalidInputError
 from gateway.protocol import commands as cmd
 from gateway.protocol.models import Command
@@ -18,7 +19,7 @@ from gateway.protocol.params import PositionFormat
 from gateway.service.runtime.runtime import Runtime
 from gateway.service.topology import AxisRef
 
-__all__ = ["PositionFormats", "check_target", "position_data"]
+__all__ = ["PositionFormats", "check_absolute_from", "check_target", "position_data"]
 
 
 class PositionFormats:
@@ -48,14 +49,40 @@ class PositionFormats:
 
 
 def check_target(ref: AxisRef, target: int, fmt: PositionFormat) -> None:
-    """Refuse a target outside the soft limits, the counter, or the controller's format."""
-    ref.check_target(target, "body.position")
-    if fmt is PositionFormat.UNSIGNED and target < 0:
+    """Refuse a target the counter cannot reach without wrapping in the controller's format
+    (``gateway.bus.counting``: every target the format writes is allowed), or outside the
+    soft limits."""
+    low, high = target_range(fmt)
+    if target < 0 and fmt is PositionFormat.UNSIGNED:
         raise InvalidInputError(
             f"target {target} pulses is negative, and controller {ref.controller_id} "
-            "manages positions unsigned (EP0)",
+            "manages positions unsigned (EP0): the counter would wrap below 0",
             field="body.position",
-            rule="negative positions need signed management: EP1 or mode 1 (§10 EP, §7-4)",
+            rule=f"{target_range_rule(fmt)}; negative positions need signed management: EP1 "
+            "or mode 1",
+        )
+    if not low <= target <= high:
+        raise InvalidInputError(
+            f"target {target} pulses is beyond the position counter of controller "
+            f"{ref.controller_id}: it would wrap",
+            field="body.position",
+            rule=target_range_rule(fmt),
+        )
+    ref.check_target(target, "body.position")
+
+
+def check_absolute_from(ref: AxisRef, here: int | None, fmt: PositionFormat) -> None:
+    """Refuse an absolute move from a counter that wrapped below 0 in unsigned management:
+    the controller moves by target - counter, the long way round (§7-4 "a later absolute
+    move may never stop")."""
+    if fmt is PositionFormat.UNSIGNED and here is not None and here < 0:
+        raise InvalidInputError(
+            f"axis {ref.id} stands at {here} pulses, a counter wrapped below 0 in unsigned "
+            f"management (it reads {counter_of(here)}): an absolute move would travel "
+            f"{counter_of(here)} pulses the wrong way",
+            field="body.position",
+            rule="in unsigned management (EP0) an absolute move needs a position >= 0: home "
+            "the axis, or move relative (§7-4, §10 EP)",
         )
 
 

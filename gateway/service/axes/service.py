@@ -36,7 +36,13 @@ from gateway.protocol.models import Command
 from gateway.protocol.params import UNSIGNED_MAX
 from gateway.protocol.speeds import SpeedSettings
 from gateway.service.axes.limit_jog import LimitJogs
-from gateway.service.axes.position_format import PositionFormats, check_target, position_data
+from gateway.service.axes.origin_guard import OriginGuard, needs_origin, reading_is_current
+from gateway.service.axes.position_format import (
+    PositionFormats,
+    check_absolute_from,
+    check_target,
+    position_data,
+)
 from gateway.service.axes.soft_limits import has_soft_limits, jog_limit
 from gateway.service.axes.speeds import (
     QUERIES,
@@ -93,6 +99,7 @@ class AxisService:
         self.operations = operations
         self.checks = PreSendChecks(gateway, leases)
         self.formats = PositionFormats(gateway)
+        self.origins = OriginGuard(gateway)
         self._speeds: dict[str, SpeedSettings] = {}  # last read, per axis id (OC while moving)
         self._limit_jogs = LimitJogs(self._run, self._submit)
 
@@ -151,17 +158,21 @@ class AxisService:
                 field="body.position",
                 rule=f"at most {UNSIGNED_MAX} pulses either way (§10 EP)",
             )
+        if relative and value == 0:
+            raise InvalidInputError(
+                "a relative move of 0 pulses",
+                field="body.position",
+                rule="|distance| >= 1 pulse",
+            )
         fmt = await self.formats.get(ref.loop, ref.body)
+        here: int | None = None
+        if needs_origin(ref, absolute_user=unit is Unit.USER and not relative):
+            here = await self.origins.confirm(ref, "move")
         if relative:
-            if value == 0:
-                raise InvalidInputError(
-                    "a relative move of 0 pulses",
-                    field="body.position",
-                    rule="|distance| >= 1 pulse",
-                )
-            target = await self._current(ref) + value
+            target = (here if here is not None else await self._current(ref)) + value
         else:
             target = value
+            check_absolute_from(ref, here if here is not None else self._cached(ref), fmt)
         check_target(ref, target, fmt)
         if relative:
             moves = [position_data(abs(value), fmt), cmd.move_cw() if value > 0 else cmd.move_ccw()]
@@ -215,9 +226,9 @@ class AxisService:
         request = {"direction": direction.value, "speed": speed.value}
         if has_soft_limits(ref):
             fmt = await self.formats.get(ref.loop, ref.body)
+            current = await self.origins.confirm(ref, "jog")
             limit = jog_limit(ref, direction is Direction.CW, fmt)
             if limit is not None:
-                current = await self._current(ref)
                 return await self._limit_jogs.start(ref, request, current, limit, fmt, holder)
         commands = [_JOG[direction]()]
         if speed is JogSpeed.HIGH:
@@ -229,7 +240,9 @@ class AxisService:
         ref = self.ref(ident)
         self._may_act(ref, holder)
         fmt = await self.formats.get(ref.loop, ref.body)
-        target = await self._current(ref) + (1 if direction is Direction.CW else -1)
+        here = await self.origins.confirm(ref, "step") if has_soft_limits(ref) else None
+        here = here if here is not None else await self._current(ref)
+        target = here + (1 if direction is Direction.CW else -1)
         check_target(ref, target, fmt)
         request = {"direction": direction.value}
         commands = [_STEP[direction]()]
@@ -259,7 +272,7 @@ class AxisService:
         """Read OH, OL, OS, OC and OX; OC only while stopped (§10 OC), else the last read."""
         ref = self.ref(ident)
         ctl = self.gateway.state.controller(ref.loop, ref.body)
-        moving = ctl.moving
+        moving = bool(ctl.moving)
         if moving and ctl.selected_motor != ref.motor:
             # OH, OL, OS, OC are per motor: reading motor m's needs F{m}, and F is refused
             # while a motor moves (§10 F). The moving motor is the selected one.
@@ -317,15 +330,22 @@ class AxisService:
         """Every check before an action on ``ref`` (``PreSendChecks.axis_action``)."""
         self.checks.axis_action(ref, holder, self.operations.active(ref.loop, ref.body), what)
 
-    async def _current(self, ref: AxisRef) -> int:
-        """The axis's position: cached, or read now when not known or stale."""
+    def _cached(self, ref: AxisRef) -> int | None:
+        """The axis's position if the cached reading is current (``reading_is_current``)."""
         state = self.gateway.state.axis(ref.loop, ref.body, ref.motor)
-        if state.position is not None and not state.stale:
-            return state.position
+        return state.position if reading_is_current(state) else None
+
+    async def _current(self, ref: AxisRef) -> int:
+        """The axis's position: cached when current, else read now (the state cache follows
+        the counter through its wraps, ``gateway.bus.counting``)."""
+        cached = self._cached(ref)
+        if cached is not None:
+            return cached
         result = await self._submit(ref, [cmd.position(ref.motor)], motor=None)
-        if not isinstance(result.value, int):
+        position = self.gateway.state.axis(ref.loop, ref.body, ref.motor).position
+        if not isinstance(result.value, int) or position is None:
             raise DeviceError(f"the position of {ref.id} could not be read", outcome="not_done")
-        return result.value
+        return position
 
     async def _submit(
         self, ref: AxisRef, commands: list[Command], *, motor: int | None

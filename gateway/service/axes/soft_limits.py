@@ -24,7 +24,8 @@ origin searches (``0`` ...)  allowed: they end at the origin, where the position
 
 The axis is the command's motor suffix, else the ``motor`` of the request, else the selected
 motor as cached; the motor found is handed to the scheduler so that the motor checked is the
-motor that moves. "Position" is the cached one when fresh, else read with ``6{mt}``. Targets
+motor that moves. "Position" is read with ``6{mt}`` first (``origin_guard``: a reset shows
+there, and a lost origin refuses the command 409 "home first"). Targets
 beyond the soft limits, the position counter or the controller's format (EP0: no negative
 target) are 422 naming the rule; nothing is sent. Axes without soft limits are not touched.
 """
@@ -35,14 +36,16 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+from gateway.bus.counting import target_range
 from gateway.errors import DeviceError, InvalidInputError
 from gateway.protocol import commands as cmd
 from gateway.protocol.models import Command
 from gateway.protocol.params import PositionFormat
 from gateway.protocol.spec import Effect
+from gateway.service.axes.origin_guard import OriginGuard
 from gateway.service.axes.position_format import PositionFormats, check_target, position_data
 from gateway.service.runtime.runtime import Runtime
-from gateway.service.topology import POSITION_MAX, POSITION_MIN, AxisRef, ControllerRef
+from gateway.service.topology import AxisRef, ControllerRef
 
 __all__ = ["Guarded", "SoftLimits", "has_soft_limits", "jog_limit"]
 
@@ -70,9 +73,9 @@ def jog_limit(axis: AxisRef, cw: bool, fmt: PositionFormat) -> int | None:
     if limit is None:
         return None
     pulses = limit / axis.units_per_pulse
+    low, high = target_range(fmt)
     if cw:
-        return min(math.floor(pulses + 1e-6), POSITION_MAX)
-    low = 0 if fmt is PositionFormat.UNSIGNED else POSITION_MIN
+        return min(math.floor(pulses + 1e-6), high)
     return max(math.ceil(pulses - 1e-6), low)
 
 
@@ -90,6 +93,7 @@ class SoftLimits:
     def __init__(self, gateway: Runtime) -> None:
         self.gateway = gateway
         self.formats = PositionFormats(gateway)
+        self.origins = OriginGuard(gateway)
 
     async def guard(
         self, ref: ControllerRef, commands: Sequence[Command], motor: int | None, field: str
@@ -135,12 +139,14 @@ class SoftLimits:
         form = command.form
         if form in cmd.ORIGIN_SEARCHES:
             return [command]
+        # The origin must be known, and the position no older than the last reset: read it.
+        here = await self.origins.confirm(axis, f"send {command.wire()!r} to", field)
         fmt = await self.formats.get(axis.loop, axis.body)
         if form in cmd.MOVES_TO_ORIGIN:
             self._check(axis, 0, fmt, command, field)
             return [command]
         if form in cmd.ONE_PULSE_STEPS:
-            target = await self._position(axis) + cmd.ONE_PULSE_STEPS[form]
+            target = here + cmd.ONE_PULSE_STEPS[form]
             self._check(axis, target, fmt, command, field)
             return [command]
         if form in cmd.MOVES_TO_POSITION_DATA or form in cmd.MOVES_BY_POSITION_DATA:
@@ -148,7 +154,7 @@ class SoftLimits:
             if form in cmd.MOVES_TO_POSITION_DATA:
                 target = data
             else:
-                target = await self._position(axis) + cmd.MOVES_BY_POSITION_DATA[form] * abs(data)
+                target = here + cmd.MOVES_BY_POSITION_DATA[form] * abs(data)
             self._check(axis, target, fmt, command, field)
             return [position_data(data, fmt), command]
         if form in cmd.MOVES_TO_TABLE_ENTRY or form in cmd.MOVES_BY_TABLE_ENTRY:
@@ -158,7 +164,7 @@ class SoftLimits:
                 target = entry
             else:
                 sign = 1 if command.params()["dir"] == "+" else -1
-                target = await self._position(axis) + sign * abs(entry)
+                target = here + sign * abs(entry)
             self._check(axis, target, fmt, command, field)
             signed = fmt is PositionFormat.SIGNED
             return [cmd.set_table_entry(pn, entry, fmt, signed=signed), command]
@@ -181,12 +187,6 @@ class SoftLimits:
                 field=field,
                 rule=exc.rule,
             ) from None
-
-    async def _position(self, axis: AxisRef) -> int:
-        state = self.gateway.state.axis(axis.loop, axis.body, axis.motor)
-        if state.position is not None and not state.stale:
-            return state.position
-        return await self._read(axis, cmd.position(axis.motor), f"the position of {axis.id}")
 
     async def _read(self, axis: AxisRef, query: Command, what: str) -> int:
         scheduler = self.gateway.scheduler(axis.loop)

@@ -25,6 +25,7 @@ import time
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
+from gateway.bus.counting import follow_counter
 from gateway.bus.events import BusEvent, LinkDown, ReplyObserved, TransactionDone
 from gateway.bus.requests import Outcome
 from gateway.bus.state_types import Change
@@ -137,7 +138,7 @@ class MotionWatch:
             elif op.ending is not None and event.command.form.reads_position:
                 motor = event.command.motor or event.motor
                 if motor == op.motor and isinstance(event.value, int) and not op.ending.done():
-                    op.ending.set_result(event.value)
+                    op.ending.set_result(self._followed(op, event.value))
 
     def _status(self, op: Operation, flags: StatusFlags) -> None:
         """A status read after ``op``'s send (the cache has just learnt it)."""
@@ -248,7 +249,9 @@ class MotionWatch:
         flags, position = (r.value for r in result.results)
         return (
             flags if isinstance(flags, StatusFlags) else None,
-            position if isinstance(position, int) and not isinstance(position, bool) else None,
+            self._followed(op, position)
+            if isinstance(position, int) and not isinstance(position, bool)
+            else None,
         )
 
     async def _read_position(self, op: Operation) -> int | None:
@@ -260,7 +263,15 @@ class MotionWatch:
             log.info("operation %s: final position not read: %s", op.id, exc)
             return None
         value = result.value
-        return value if isinstance(value, int) and not isinstance(value, bool) else None
+        if isinstance(value, int) and not isinstance(value, bool):
+            return self._followed(op, value)
+        return None
+
+    def _followed(self, op: Operation, reported: int) -> int:
+        """A position reply of ``op``'s axis as the state cache keeps it: the counter followed
+        through its wraps (``gateway.bus.counting``), so ends and pre-reads compare alike."""
+        cached = self.gateway.state.axis(op.axis.loop, op.axis.body, op.motor).position
+        return follow_counter(reported, cached)
 
     def _on_change(self, change: Change) -> None:
         """A controller that stops answering ends its operation in doubt."""
@@ -325,7 +336,7 @@ class MotionWatch:
             motor = event.command.motor or event.motor
             if motor == op.motor and isinstance(value, int) and not isinstance(value, bool):
                 del self._unknown[key]
-                self._judge(op, value, rb.errors)
+                self._judge(op, self._followed(op, value), rb.errors)
 
     def _judge(self, op: Operation, position: int, errors: set[str]) -> None:
         expected, before = op.expected_end, op.position_before

@@ -25,6 +25,7 @@ from collections import OrderedDict
 from collections.abc import Callable, Sequence
 from typing import Any
 
+from gateway.bus.counting import follow_counter
 from gateway.bus.requests import LoopDown, Outcome, ReplyKind, TransactionResult
 from gateway.errors import ConflictError, DeviceError, NotFoundError, StateUnavailable
 from gateway.protocol.models import Command
@@ -264,7 +265,9 @@ class Operations:
         for command_result in result.results:
             before = command_result.seen.get("position_before")
             if isinstance(before, int) and not isinstance(before, bool):
-                op.position_before = before
+                # As the state cache keeps positions: the counter followed through its wraps.
+                axis = self.gateway.state.axis(op.axis.loop, op.axis.body, op.motor)
+                op.position_before = follow_counter(before, axis.position)
         outcome = result.outcome
         if outcome is Outcome.DONE:
             if op.sent is None:

@@ -27,12 +27,14 @@ from gateway.bus.poll_plan import PollConfig
 from gateway.bus.poller import Poller, attach
 from gateway.bus.scheduler import LinkState, LoopScheduler
 from gateway.bus.state import StateCache
+from gateway.protocol.commands import position
 from gateway.protocol.framing import Series
 from gateway.protocol.reply_parser import UnsolicitedKind
 from gateway.service.config import GatewayConfig, LoopSettings
 from gateway.service.control import ControlStates
 from gateway.service.events import EventKind, ServiceEvent, ServiceEvents
 from gateway.service.runtime.key_switch import KeySwitchReader
+from gateway.service.runtime.origin_watch import OriginWatch
 from gateway.service.store.database import StateStore
 from gateway.service.topology import LoopRef, Topology
 from gateway.transport.base import Transport
@@ -102,6 +104,13 @@ class Runtime:
             scheduler.events.subscribe(self._relay)
         #: local/remote control of every controller, and the key switches' reader
         self.control = ControlStates(self.topology, self.events)
+        #: the origin events and log lines (a controller reset, an origin found)
+        self.origins = OriginWatch(
+            self.topology,
+            self.state,
+            self.events,
+            read_position=lambda a: self.scheduler(a.loop).submit(a.body, position(a.motor)),
+        )
         self.key_switches = KeySwitchReader(self.topology, self.control, self.schedulers)
         if transports:
             raise ValueError(f"transports for loops not configured: {sorted(transports)}")
