@@ -86,6 +86,7 @@ class Poller:
         self._plan = PollPlan(bodies, config or PollConfig(), time_scale)
         self._clock = clock
         self._wake = asyncio.Event()
+        self._stopping = False
         self._link_up = asyncio.Event()
         self._link_up.set()
         self._task: asyncio.Task[None] | None = None
@@ -122,12 +123,14 @@ class Poller:
     def start(self) -> None:
         """Start polling (in the running event loop)."""
         if self._task is None:
+            self._stopping = False
             self._task = asyncio.create_task(self._run(), name=f"poller {self.loop}")
 
     async def stop(self) -> None:
         """Stop polling; the transaction in flight is abandoned."""
         task, self._task = self._task, None
         if task is not None:
+            self._stopping = True
             task.cancel()
             with contextlib.suppress(asyncio.CancelledError):
                 await task
@@ -209,7 +212,9 @@ class Poller:
     # ------------------------------------------------------------------ the jobs
 
     async def _run(self) -> None:
-        while True:
+        # The flag, not only the cancellation, ends the loop: asyncio.wait_for (3.11) returns
+        # the inner result when a cancel meets a wake that has just fired, swallowing the cancel.
+        while not self._stopping:
             await self._link_up.wait()
             self._take_notes()
             now = self.now()
@@ -218,7 +223,8 @@ class Poller:
                 self._wake.clear()
                 wait = None if picked == float("inf") else max(0.0, picked - now)
                 with contextlib.suppress(TimeoutError):
-                    await asyncio.wait_for(self._wake.wait(), wait)
+                    async with asyncio.timeout(wait):
+                        await self._wake.wait()
                 continue
             plan, job = picked
             plan.ran_due = plan.due.pop(job)

@@ -278,8 +278,9 @@ class Cell:
         )
         try:
             writer.write(
-                f"POST /api/v1/axes/{axis}/move HTTP/1.1\r\nHost: t\r\nConnection: close\r\n"
-                f"Content-Type: application/json\r\nContent-Length: {len(body)}\r\n\r\n".encode()
+                f"POST /api/v1/axes/{axis}/move HTTP/1.1\r\nHost: 127.0.0.1\r\n"
+                f"Connection: close\r\nContent-Type: application/json\r\n"
+                f"Content-Length: {len(body)}\r\n\r\n".encode()
                 + body
             )
             answer = await asyncio.wait_for(reader.read(), WAIT)
