@@ -96,7 +96,7 @@ def test_a_plot_shows_a_scale_with_the_unit(gateway: Gateway, session: Session) 
     page = session.page
     _live(gateway, page)
     card = page.get_by_test_id("axis-x")
-    plot = card.get_by_test_id("plot")
+    plot = card.locator(".plot")
     expect(plot).to_have_attribute("data-y-ticks", re.compile(r"\|"))
     labels = (plot.get_attribute("data-y-ticks") or "").split("|")
     assert len(labels) >= 2 and len(set(labels)) == len(labels), labels
@@ -147,8 +147,8 @@ def test_the_trace_follows_its_tail_and_keeps_the_hex_box_while_it_is_set(
 ) -> None:
     page = session.page
     _live(gateway, page, "/#/trace/sim")
-    log = page.get_by_test_id("trace-log")
-    page.get_by_test_id("trace-on").check()
+    log = page.get_by_role("log")
+    page.get_by_label("trace on").check()
     try:
         # more lines than the box shows: the newest are in view
         page.wait_for_function(
@@ -174,7 +174,7 @@ def test_the_trace_follows_its_tail_and_keeps_the_hex_box_while_it_is_set(
         # half-second refresh reads meanwhile
         held: list[Route] = []
         _hold_puts(page, held)
-        hex_box = page.get_by_test_id("trace-hex")
+        hex_box = page.get_by_label("hex")
         hex_box.check()
         for _ in range(2):
             with page.expect_response(
@@ -190,4 +190,4 @@ def test_the_trace_follows_its_tail_and_keeps_the_hex_box_while_it_is_set(
         hex_box.uncheck()
         expect(hex_box).not_to_be_checked()
     finally:
-        page.get_by_test_id("trace-on").uncheck()
+        page.get_by_label("trace on").uncheck()

@@ -60,7 +60,7 @@ def test_a_written_position_table_entry_stays_in_its_field(
     page = session.page
     _live(gateway, page, "/#/controller/sim.2")
     page.get_by_role("button", name="Read 10 entries").click()
-    entry = page.get_by_test_id("position-entry-5")
+    entry = page.get_by_label(re.compile(r"^position 5\b"))
     expect(entry).to_be_visible()
     mark = gateway.line.mark()
     entry.fill("1234")
@@ -82,7 +82,7 @@ def test_the_age_of_an_idle_reading_is_the_gateways(gateway: Gateway, session: S
     _page_time_passes(page, 8)
     server = api_get(gateway, "/axes/theta")
     assert not server["moving"] and time.time() - server["updated"] < 3, server
-    expect(card.get_by_test_id("age")).to_have_text(re.compile(r"^(now|[0-4] s ago)$"))
+    expect(card.locator(".age")).to_have_text(re.compile(r"^(now|[0-4] s ago)$"))
 
 
 def test_the_program_state_follows_the_program_to_its_end_in_24_hour_times(
@@ -99,7 +99,7 @@ def test_the_program_state_follows_the_program_to_its_end_in_24_hour_times(
     page.get_by_role("button", name="Run").click()
     console = page.get_by_test_id("program-console")
     expect(console).to_contain_text("DONE")
-    state = page.get_by_test_id("program-state")
+    state = page.locator("header .muted", has_text=re.compile("^state "))
     # ended, and no "next step" of a program that has none left to run
     expect(state).to_have_text("state ended")
     lines = console.inner_text().strip().splitlines()
@@ -128,13 +128,13 @@ def test_inputs_are_indicators_and_outputs_are_switches(
     gateway.line.call("input", body="3", bit=2, on=True)
     try:
         _live(gateway, page, "/#/controller/sim.3")
-        inputs = page.get_by_test_id("inputs-bits")
-        outputs = page.get_by_test_id("outputs-bits")
+        inputs = page.locator(".bits", has_text="inputs")
+        outputs = page.locator(".bits", has_text="outputs")
         expect(outputs.get_by_role("button")).to_have_count(8)
         expect(inputs.get_by_role("button")).to_have_count(0)
         expect(inputs.get_by_role("img", name="input 2 on")).to_be_visible()
         expect(inputs.get_by_role("img", name="input 3 off")).to_be_visible()
-        lamp = inputs.get_by_test_id("input-3")
+        lamp = inputs.get_by_role("img", name="input 3 off")
         look = lamp.evaluate(
             "e => { const s = getComputedStyle(e); return [s.cursor, s.borderRadius] }"
         )
@@ -155,10 +155,10 @@ def test_the_limit_bar_of_an_unsigned_controller_starts_at_0(
     view = api_get(gateway, "/controllers/sim.1")
     assert view["mode"] == 0 and view["signed_positions"] in (False, None), view
     assert api_get(gateway, "/axes/x")["soft_min"] == -40.0
-    bar = page.get_by_test_id("axis-x").get_by_test_id("limitbar")
+    bar = page.get_by_test_id("axis-x").locator(".limitbar")
     # EP0 counts no position below 0 (§10 EP, §7-4): 0 is where x can really go
-    expect(bar.get_by_test_id("limit-low")).to_have_text("0")
-    expect(bar.get_by_test_id("limit-high")).to_have_text("940")
+    expect(bar.locator(".lim.lo")).to_have_text("0")
+    expect(bar.locator(".lim.hi")).to_have_text("940")
     assert "unsigned" in (bar.get_attribute("title") or "")
 
 
@@ -166,8 +166,10 @@ def test_a_sensor_in_its_normal_state_is_not_an_alarm(gateway: Gateway, session:
     assert gateway.line is not None
     page = session.page
     _live(gateway, page, "/#/axis/x")
-    step_out = page.get_by_test_id("sensor-step_out_sensor")
-    # the step-out sensor is ON at rest in the simulated cell's scene: a normal state
+    step_out = page.locator(".sensor", has_text=re.compile("step.out sensor"))
+    # the step-out sensor is ON at rest in the simulated cell's scene: a normal state, shown
+    # ON (and not as an alarm)
+    expect(step_out).to_have_class(re.compile(r"\bon\b"))
     expect(step_out).to_have_text("step-out sensor ON")
     assert step_out.evaluate("e => getComputedStyle(e).backgroundColor") != ALARM
     # a limit sensor ON is an alarm (§8: the motor stops, a limit error): conveyor's CW limit
