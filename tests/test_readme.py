@@ -106,7 +106,7 @@ async def test_the_control_surface_example_runs_with_the_projects_own_python(
 ) -> None:
     block = next(b for b in sh_blocks(README.read_text(encoding="utf-8")) if '"op": "ems"' in b)
     port = free_port()
-    command = block.replace("127.0.0.1\", 5234", f"127.0.0.1\", {port}").replace(
+    command = block.replace('127.0.0.1", 5234', f'127.0.0.1", {port}').replace(
         ".venv/bin/python", str(Path(sys.executable))
     )
     assert command.count(str(port)) == 1, block

@@ -7,6 +7,7 @@ phone (390x844). These tests move the conveyor (controller 3, motor 2) and stop 
 
 from __future__ import annotations
 
+import itertools
 import json
 import re
 import urllib.request
@@ -104,7 +105,7 @@ def test_a_plot_shows_a_scale_with_the_unit(gateway: Gateway, session: Session) 
     values = [float(label.removesuffix(" mm")) for label in labels]
     position = float(card.get_by_test_id("position").inner_text().replace(",", ""))
     assert values == sorted(values) and values[0] <= position <= values[-1], (values, position)
-    steps = {round(b - a, 9) for a, b in zip(values, values[1:], strict=False)}
+    steps = {round(b - a, 9) for a, b in itertools.pairwise(values)}
     assert len(steps) == 1, steps  # evenly spaced: a scale, not one label near the value
     expect(plot).to_have_attribute("aria-label", re.compile(r"scale .+ mm to .+ mm"))
 

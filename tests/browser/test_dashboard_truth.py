@@ -120,9 +120,7 @@ def test_a_refused_program_names_the_statement_the_target_and_why(
     expect(check).to_contain_text("§12 JUMP table")
 
 
-def test_inputs_are_indicators_and_outputs_are_switches(
-    gateway: Gateway, session: Session
-) -> None:
+def test_inputs_are_indicators_and_outputs_are_switches(gateway: Gateway, session: Session) -> None:
     assert gateway.line is not None
     page = session.page
     gateway.line.call("input", body="3", bit=2, on=True)
