@@ -173,9 +173,15 @@ def test_the_trace_follows_its_tail_and_keeps_the_hex_box_while_it_is_set(
         assert count >= 60 and log.evaluate("e => e.scrollTop") == 0
         # the hex box keeps what was clicked while its PUT is on its way, whatever the
         # half-second refresh reads meanwhile
+        hex_box = page.get_by_label("hex")
+        hex_box.uncheck()  # another test may have left the loop's trace in hex
+        with page.expect_response(
+            lambda r: r.url.endswith("/loops/sim/trace") and r.request.method == "GET"
+        ):
+            pass
+        expect(hex_box).not_to_be_checked()
         held: list[Route] = []
         _hold_puts(page, held)
-        hex_box = page.get_by_label("hex")
         hex_box.check()
         for _ in range(2):
             with page.expect_response(
