@@ -87,6 +87,7 @@ def test_nothing_in_a_card_head_or_a_failure_reason_is_cut_off(
         assert op.evaluate("e => e.scrollWidth <= e.clientWidth + 1"), op.inner_text()
         text = op.inner_text()
         assert not text.endswith("…") and len(text) > 20, text
+        op.evaluate("e => e.scrollIntoView({block: 'center'})")  # not under the sticky bar
         shot(page, f"axis-failed-{width}")
         assert opened.foreign == []
     finally:

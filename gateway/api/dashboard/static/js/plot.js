@@ -96,7 +96,16 @@ export function PositionPlot({ axisId, height = 120, window = HISTORY_SECONDS, e
           stroke: "#8fa3b8",
           grid: { stroke: "#2a3644" },
           ticks: { stroke: "#2a3644" },
-          size: 78,
+          // As wide as the widest label ("60000 pulse" needs more room than "1 mm").
+          size: (u, values) => {
+            if (!values || values.length === 0) return 40;
+            const { ctx } = u;
+            ctx.save();
+            ctx.font = u.axes[1].font?.[0] || ctx.font;
+            const widest = Math.max(...values.map((v) => ctx.measureText(v).width));
+            ctx.restore();
+            return Math.ceil(widest / devicePixelRatio) + 14;
+          },
           splits: (u, _i, min, max) => yTicks(u, min, max).values,
           // Every label carries the unit; the labels drawn are also on the element, for
           // screen readers and the tests.
