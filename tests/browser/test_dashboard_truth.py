@@ -158,6 +158,15 @@ def test_the_limit_bar_of_an_unsigned_controller_starts_at_0(
     expect(bar.locator(".lim.lo")).to_have_text("0")
     expect(bar.locator(".lim.hi")).to_have_text("940")
     assert "unsigned" in (bar.get_attribute("title") or "")
+    # a controller that counts signed (EP1) can go below 0: its bar starts at the soft limit
+    z_low = page.get_by_test_id("axis-z").locator(".limitbar .lim.lo")
+    expect(z_low).to_have_text("0")
+    api_post(gateway, "/controllers/sim.2/commands", '{"command": "EP1"}')
+    try:
+        expect(z_low).to_have_text("-40")
+    finally:
+        api_post(gateway, "/controllers/sim.2/commands", '{"command": "EP0"}')
+    expect(z_low).to_have_text("0")
 
 
 def test_a_sensor_in_its_normal_state_is_not_an_alarm(gateway: Gateway, session: Session) -> None:
