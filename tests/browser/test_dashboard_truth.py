@@ -64,6 +64,8 @@ def test_a_written_position_table_entry_stays_in_its_field(
     expect(entry).to_be_visible()
     mark = gateway.line.mark()
     entry.fill("1234")
+    _page_time_passes(page, 1.5)  # redraws while the field holds what was typed
+    expect(entry).to_have_value("1234")
     entry.press("Tab")
     gateway.line.wait_heard(mark, lambda h: "A0051234" in h)  # §10 A: A{pn}{pp}
     expect(page.get_by_text("Position 5 written")).to_be_visible()

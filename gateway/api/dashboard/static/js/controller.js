@@ -12,6 +12,9 @@ function PositionTable({ ctl }) {
   const [start, setStart] = useState(0);
   const [rows, setRows] = useState([]);
   const [busy, setBusy] = useState(false);
+  // What is typed and not yet written, per entry: a redraw (every second) never puts the
+  // device's old value back under the user's fingers.
+  const [drafts, setDrafts] = useState({});
   const read = async () => {
     setBusy(true);
     const out = [];
@@ -23,6 +26,7 @@ function PositionTable({ ctl }) {
       }
     }
     setRows(out);
+    setDrafts({});
     setBusy(false);
   };
   // The row shows what the device holds: read back after the write (and after a refusal,
@@ -42,6 +46,7 @@ function PositionTable({ ctl }) {
       row = { number: n, error: err.message };
     }
     setRows((before) => before.map((r) => (r.number === n ? row : r)));
+    setDrafts(({ [n]: _, ...rest }) => rest);
   };
   return html`<div class="postable">
     <label>from number <input type="number" min="0" max="990" value=${start} onInput=${(e) => setStart(Number(e.currentTarget.value))} /></label>
@@ -54,7 +59,9 @@ function PositionTable({ ctl }) {
               <td>${r.error
                 ? html`<span class="problem">${r.error}</span>`
                 : can("operator")
-                  ? html`<input type="number" value=${r.position} onChange=${(e) => write(r.number, e.currentTarget.value)} aria-label="position ${r.number} in pulses" data-testid="position-entry-${r.number}" />`
+                  ? html`<input type="number" value=${drafts[r.number] ?? r.position}
+                      onInput=${(e) => setDrafts({ ...drafts, [r.number]: e.currentTarget.value })}
+                      onChange=${(e) => write(r.number, e.currentTarget.value)} aria-label="position ${r.number} in pulses" data-testid="position-entry-${r.number}" />`
                   : r.position}</td>
               <td></td>
             </tr>`,
