@@ -59,6 +59,7 @@ export function PositionPlot({ axisId, height = 120, window = HISTORY_SECONDS, e
       const live = op && !["done", "failed", "unknown"].includes(op.state);
       return { axis, target: live ? (op.target_user ?? op.target) : null };
     };
+    const measured = { key: "", size: 40 };
     const opts = {
       width: el.clientWidth || 300,
       height,
@@ -97,14 +98,19 @@ export function PositionPlot({ axisId, height = 120, window = HISTORY_SECONDS, e
           grid: { stroke: "#2a3644" },
           ticks: { stroke: "#2a3644" },
           // As wide as the widest label ("60000 pulse" needs more room than "1 mm").
+          // Measured only when the labels change (every redraw asks).
           size: (u, values) => {
             if (!values || values.length === 0) return 40;
+            const key = values.join("|");
+            if (key === measured.key) return measured.size;
             const { ctx } = u;
             ctx.save();
             ctx.font = u.axes[1].font?.[0] || ctx.font;
             const widest = Math.max(...values.map((v) => ctx.measureText(v).width));
             ctx.restore();
-            return Math.ceil(widest / devicePixelRatio) + 14;
+            measured.key = key;
+            measured.size = Math.ceil(widest / devicePixelRatio) + 14;
+            return measured.size;
           },
           splits: (u, _i, min, max) => yTicks(u, min, max).values,
           // Every label carries the unit; the labels drawn are also on the element, for
@@ -113,8 +119,11 @@ export function PositionPlot({ axisId, height = 120, window = HISTORY_SECONDS, e
             const unit = (store.axes.get(axisId) || {}).unit || "";
             const digits = splits.length > 1 ? tickDigits(Math.abs(splits[1] - splits[0])) : 0;
             const labels = splits.map((v) => `${v.toFixed(digits)} ${unit}`.trim());
-            el.dataset.yTicks = labels.join("|");
-            el.setAttribute("aria-label", `position plot, scale ${labels[0] || ""} to ${labels[labels.length - 1] || ""}`);
+            const joined = labels.join("|");
+            if (el.dataset.yTicks !== joined) {
+              el.dataset.yTicks = joined;
+              el.setAttribute("aria-label", `position plot, scale ${labels[0] || ""} to ${labels[labels.length - 1] || ""}`);
+            }
             return labels;
           },
         },
