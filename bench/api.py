@@ -49,6 +49,8 @@ from websockets.uri import parse_uri
 
 AXIS = "x"  # sim.1.1
 MARKER = 99_999  # the position that ends a fan-out run
+#: every request that acts is declared JSON, bodyless too (the gateway refuses it otherwise)
+JSON_ACT = {"Content-Type": "application/json"}
 
 
 # --------------------------------------------------------------------------- the server
@@ -354,7 +356,7 @@ async def ws_bench(
     async with httpx.AsyncClient(base_url=base) as client:
         server_before, own_before, start = await server_cpu(client), own_cpu(), time.monotonic()
         params = {"rate": rate, "seconds": seconds, "freeze": freeze}
-        response = await client.post("/bench/inject", params=params)
+        response = await client.post("/bench/inject", params=params, headers=JSON_ACT)
         assert response.status_code == 200, response.text
         expected = round(rate * seconds)
         await asyncio.wait_for(finished.wait(), seconds + 60)

@@ -191,7 +191,9 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
                 cdp.send("Profiler.enable")
                 cdp.send("Profiler.start")
             httpx.post(
-                f"{base}/api/v1/bench/inject", params={"rate": args.rate, "seconds": args.seconds}
+                f"{base}/api/v1/bench/inject",
+                params={"rate": args.rate, "seconds": args.seconds},
+                headers={"Content-Type": "application/json"},  # every act is declared JSON
             )
             page.wait_for_timeout(args.seconds * 1000)
             if args.profile:

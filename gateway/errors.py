@@ -11,7 +11,8 @@
     └── ServiceError ............. what the service layer refuses or could not do
         ├── NotFoundError ........ no loop, controller, axis or operation by that id or name
         ├── ConflictError ........ the resource is busy: moving, leased by another client
-        └── DeviceError .......... the device did not answer, or its answer leaves doubt
+        ├── DeviceError .......... the device did not answer, or its answer leaves doubt
+        └── StateUnavailable ..... the state store cannot record it: nothing was done
 
 Every InvalidInputError carries ``field`` (the parameter or input it is about, or None when
 it is about the whole text) and ``rule`` (the manual's rule, in words), so that the API layer
@@ -32,6 +33,7 @@ __all__ = [
     "ProtocolError",
     "ReplyFormatError",
     "ServiceError",
+    "StateUnavailable",
     "UnknownCommandError",
 ]
 
@@ -124,3 +126,8 @@ class DeviceError(ServiceError):
         super().__init__(message)
         self.outcome = outcome
         self.timeout = timeout
+
+
+class StateUnavailable(ServiceError):
+    """What must be recorded before it acts (an operation) could not be written to the state
+    store (disk full, read-only, I/O error): nothing was sent, a retry later may succeed."""

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import asyncio
 import os
+import resource
 import signal
 import socket
 import sys
@@ -35,26 +36,36 @@ class Served:
 
     url: str
     port: int
+    pid: int = 0
     log: list[str] = field(default_factory=list)
+
+
+def _limit_files(soft: int) -> None:
+    hard = resource.getrlimit(resource.RLIMIT_NOFILE)[1]
+    resource.setrlimit(resource.RLIMIT_NOFILE, (soft, hard))
 
 
 @asynccontextmanager
 async def serve(
-    tmp_path: Path, *options: str, env: dict[str, str] | None = None
+    tmp_path: Path, *options: str, env: dict[str, str] | None = None, files: int | None = None
 ) -> AsyncIterator[Served]:
     """Start ``rc233-gateway serve`` with ``options`` (default ``--simulate`` at
-    ``TIME_SCALE``) on a free port; after the block SIGINT must end it with exit code 0."""
+    ``TIME_SCALE``) on a free port; after the block SIGINT must end it with exit code 0.
+    ``files``: the process's soft descriptor limit (systemd's default is 1,024)."""
     port = free_port()
     argv = options or ("--simulate", "--no-auth", "--time-scale", str(TIME_SCALE))
-    env = {**os.environ, "XDG_DATA_HOME": str(tmp_path), **(env or {})}
+    # XDG_STATE_HOME: a real line's default state directory is the test's own, never the user's
+    env = {**os.environ, "XDG_DATA_HOME": str(tmp_path), "XDG_STATE_HOME": str(tmp_path),
+           **(env or {})}  # fmt: skip
     if "--simulate" in argv and "--eeprom-dir" not in argv:
         argv = (*argv, "--eeprom-dir", str(tmp_path / "eeprom"))
     process = await asyncio.create_subprocess_exec(
         str(GATEWAY), "serve", *argv, "--port", str(port),
         stdout=asyncio.subprocess.DEVNULL, stderr=asyncio.subprocess.PIPE, env=env,
+        preexec_fn=None if files is None else lambda: _limit_files(files),
     )  # fmt: skip
     assert process.stderr is not None
-    served = Served(f"http://127.0.0.1:{port}", port)
+    served = Served(f"http://127.0.0.1:{port}", port, process.pid)
     started = asyncio.Event()
 
     async def read_log() -> None:

@@ -2,17 +2,25 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
 
 from gateway.api.security import hash_token
 from gateway.cli import main
+from tests.config_checks import problems_of, pseudo_terminal
 
 EXAMPLE = Path(__file__).parents[1] / "deploy" / "cell.example.toml"
 
 
-def cell(tmp_path: Path, *, audit: str, port: str = "/dev/null", tokens: bool = True) -> Path:
+@pytest.fixture
+def tty() -> Iterator[str]:
+    with pseudo_terminal() as path:
+        yield path
+
+
+def cell(tmp_path: Path, *, audit: str, port: str, tokens: bool = True) -> Path:
     lines = [
         f'audit_log = "{audit}"',
         "[[loops]]",
@@ -33,15 +41,6 @@ def cell(tmp_path: Path, *, audit: str, port: str = "/dev/null", tokens: bool = 
     return path
 
 
-def problems_of(out: str) -> dict[str, str]:
-    """The problems printed, by key."""
-    found: dict[str, str] = {}
-    for line in out.splitlines()[1:]:
-        key, _, text = line.strip().partition(": ")
-        found.setdefault(key, text)
-    return found
-
-
 def test_the_example_fails_naming_every_problem_by_its_key(
     capsys: pytest.CaptureFixture[str],
 ) -> None:
@@ -53,15 +52,17 @@ def test_the_example_fails_naming_every_problem_by_its_key(
         "security.tokens[0].sha256",
         "security.tokens[1].sha256",
         "audit_log",
-        "loops[0].port",
     }, out
     assert "/var/log/rc233-gateway does not exist" in found["audit_log"]
-    assert "No such file or directory" in found["loops[0].port"]
-    assert out.startswith(f"{EXAMPLE}: 4 problem(s)")
+    assert out.startswith(f"{EXAMPLE}: 3 problem(s)")
+    # The adapter of the example is not plugged in here: a warning (that loop starts down)
+    warned = problems_of(out, "warning(s)")
+    assert list(warned) == ["loops[0].port"], out
+    assert "No such file or directory" in warned["loops[0].port"]
 
 
-def test_a_good_file_is_ok(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    path = cell(tmp_path, audit=str(tmp_path / "audit.jsonl"))
+def test_a_good_file_is_ok(tmp_path: Path, tty: str, capsys: pytest.CaptureFixture[str]) -> None:
+    path = cell(tmp_path, audit=str(tmp_path / "audit.jsonl"), port=tty)
     assert main(["check-config", str(path)]) == 0
     assert capsys.readouterr().out == f"{path}: ok (1 loop(s), 1 controller(s), 1 token(s))\n"
     assert not (tmp_path / "audit.jsonl").exists()  # checked, not made
@@ -70,9 +71,10 @@ def test_a_good_file_is_ok(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -
 @pytest.mark.parametrize(
     ("audit", "port", "key", "words"),
     [
-        ("{tmp}/none/audit.jsonl", "/dev/null", "audit_log", "does not exist"),
-        ("{tmp}", "/dev/null", "audit_log", "is a directory"),
-        ("{tmp}/a.jsonl", "/dev/ttyNOPE9", "loops[0].port", "No such file or directory"),
+        ("{tmp}/none/audit.jsonl", "{tty}", "audit_log", "does not exist"),
+        ("{tmp}", "{tty}", "audit_log", "is a directory"),
+        ("{tmp}/a.jsonl", "/dev/null", "loops[0].port", "a character device but not a terminal"),
+        ("{tmp}/a.jsonl", "/dev/zero", "loops[0].port", "a character device but not a terminal"),
         ("{tmp}/a.jsonl", "{tmp}/cell.toml", "loops[0].port", "not a serial device"),
         ("{tmp}/a.jsonl", "socket://host", "loops[0].port", "socket://HOST:PORT"),
         ("{tmp}/a.jsonl", "socket://host:70000", "loops[0].port", "port 1-65535"),
@@ -81,32 +83,52 @@ def test_a_good_file_is_ok(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -
 )
 def test_each_site_problem_is_named_by_its_key(
     tmp_path: Path,
+    tty: str,
     capsys: pytest.CaptureFixture[str],
     audit: str,
     port: str,
     key: str,
     words: str,
 ) -> None:
-    path = cell(tmp_path, audit=audit.format(tmp=tmp_path), port=port.format(tmp=tmp_path))
+    path = cell(tmp_path, audit=audit.format(tmp=tmp_path), port=port.format(tmp=tmp_path, tty=tty))
     assert main(["check-config", str(path)]) == 1
     found = problems_of(capsys.readouterr().out)
     assert list(found) == [key]
     assert words in found[key]
 
 
-def test_no_token_is_a_problem_unless_the_api_runs_open(
+def test_a_missing_device_is_a_warning_and_a_problem_when_strict(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    path = cell(tmp_path, audit=str(tmp_path / "a.jsonl"), tokens=False)
+    # An adapter unplugged at boot: that loop starts down, the others serve.
+    path = cell(tmp_path, audit=str(tmp_path / "a.jsonl"), port="/dev/serial/by-id/not-here")
+    assert main(["check-config", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert problems_of(out) == {}, out
+    warned = problems_of(out, "warning(s)")
+    assert list(warned) == ["loops[0].port"], out
+    assert "does not exist yet (No such file or directory)" in warned["loops[0].port"]
+    assert "the loop starts down" in warned["loops[0].port"]
+    assert out.endswith(f"{path}: ok (1 loop(s), 1 controller(s), 1 token(s))\n")
+    assert main(["check-config", "--strict", str(path)]) == 1
+    out = capsys.readouterr().out
+    assert list(problems_of(out)) == ["loops[0].port"], out
+    assert problems_of(out, "warning(s)") == {}
+
+
+def test_no_token_is_a_problem_unless_the_api_runs_open(
+    tmp_path: Path, tty: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = cell(tmp_path, audit=str(tmp_path / "a.jsonl"), port=tty, tokens=False)
     assert main(["check-config", str(path)]) == 1
     assert "security.tokens: no API token is configured" in capsys.readouterr().out
     assert main(["check-config", str(path), "--no-auth"]) == 0
 
 
 def test_serve_refuses_to_start_with_any_problem_left(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+    tmp_path: Path, tty: str, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    path = cell(tmp_path, audit=str(tmp_path / "missing" / "audit.jsonl"))
+    path = cell(tmp_path, audit=str(tmp_path / "missing" / "audit.jsonl"), port=tty)
     assert main(["serve", "--config", str(path)]) == 2
     err = capsys.readouterr().err
     assert f"{path}: 1 problem(s)" in err

@@ -150,7 +150,7 @@ def test_serve_stops_on_a_bad_configuration(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     cell = tmp_path / "cell.toml"
-    cell.write_text('[[loops]]\nname = "main"\nport = "/dev/null"\nbaud = 4800\n'
+    cell.write_text('[[loops]]\nname = "main"\nport = "socket://127.0.0.1:4001"\nbaud = 4800\n'
                     '[[loops.controllers]]\nbody = "1"\n')  # fmt: skip
     assert main(["serve", "--config", str(cell)]) == 2
     err = capsys.readouterr().err

@@ -33,7 +33,10 @@ def access_level(method: str, status: int) -> int:
 def log_access(scope: Scope, status: int) -> None:
     """The access line of the request of ``scope``, answered ``status``."""
     method: str = scope["method"]
-    level = access_level(method, status)
+    # A failed authentication has its own line, one per address a while
+    # (gateway.api.auth_failures): a flood of wrong tokens is not a flood of lines.
+    failed = scope.get("state", {}).get("auth_failed", False)
+    level = logging.DEBUG if failed else access_level(method, status)
     if not log.isEnabledFor(level):
         return
     client = scope.get("client")

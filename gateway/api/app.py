@@ -30,8 +30,10 @@ from gateway.api import (
     ws,
 )
 from gateway.api.audit import AuditLog, control_entry, install_audit, resolution_entry
+from gateway.api.auth_failures import AuthFailures
 from gateway.api.body_gate import BodyGate
 from gateway.api.dashboard import install_dashboard
+from gateway.api.fresh_reads import FreshReadGate
 from gateway.api.hardening import HardeningMiddleware
 from gateway.api.health import install_health_and_metrics
 from gateway.api.idempotency import install_idempotency
@@ -39,6 +41,7 @@ from gateway.api.openapi_docs import install_openapi_docs, operation_id
 from gateway.api.problems import install_problem_handlers
 from gateway.api.read_path import AxisReadPath
 from gateway.api.redaction import install_log_redaction
+from gateway.api.request_guard import RequestGuard
 from gateway.api.security import AuthConfig, install_security
 from gateway.service.axes.service import AxisService
 from gateway.service.baud import BaudChanger
@@ -95,18 +98,21 @@ def create_app(gateway: Runtime, *, auth: AuthConfig) -> FastAPI:
         gateway.config.ws,
         control=gateway.control,
         loop_baud=lambda name: gateway.scheduler(name).timing.baud,
+        loop_adapter=lambda name: gateway.scheduler(name).transport.adapter,
     )
 
     install_log_redaction()  # no token in any log line, whoever prints it
 
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
+        await operations.restore()  # before the loops: what the last process left unended
         await gateway.start()
         try:
             yield
         finally:
             feed.close()
             operations.close()
+            failures.close()
             await gateway.close()
             await audit.close()
 
@@ -144,16 +150,26 @@ def create_app(gateway: Runtime, *, auth: AuthConfig) -> FastAPI:
     install_dashboard(app, API_PREFIX)
     # Middleware added later wraps what was added before: the cached read innermost, then
     # the problem handlers, security, idempotency, the body gate (inside the audit, which
-    # records what it refuses), audit, metrics, and CORS outermost so that error responses
-    # carry the CORS headers too.
+    # records what it refuses), audit, the host and origin guard, metrics, and CORS
+    # outermost so that error responses carry the CORS headers too.
     # Innermost: the plain cached read of an axis, answered without routing (every layer
     # outside still applies to it); anything else it hands on.
     app.add_middleware(AxisReadPath, gateway=gateway, prefix=API_PREFIX)
+    # Around it: a caller's fresh reads beyond a few at a time become cached reads.
+    app.add_middleware(FreshReadGate, prefix=API_PREFIX)
     install_problem_handlers(app)
-    install_security(app, auth)
-    install_idempotency(app)
+    failures = AuthFailures(audit.record)
+    install_security(app, auth, failures)
+    install_idempotency(app, gateway.store)
     app.add_middleware(BodyGate)
     install_audit(app, audit)
+    # Outside the audit (a request to another host or from another site never reached the
+    # API), inside the metrics and the access line (which count it).
+    app.add_middleware(
+        RequestGuard,
+        allowed_hosts=gateway.config.security.allowed_hosts,
+        cors_origins=gateway.config.security.cors_origins,
+    )
     install_health_and_metrics(app, gateway)
     install_openapi_docs(app)
     security = gateway.config.security

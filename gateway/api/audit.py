@@ -164,6 +164,8 @@ class AuditMiddleware:
         total: int,
         status: int | None,
     ) -> None:
+        if state.get("auth_failed"):
+            return  # one record per address a while (gateway.api.auth_failures)
         principal = state.get("principal")
         if not isinstance(principal, Principal):
             # Answered before any route authenticated it (404, 405, a refused body): the

@@ -4,7 +4,9 @@ A body is refused, with a problem naming the field and the rule, when it is:
 
 * longer than ``BODY_LIMIT`` bytes: 413, from ``Content-Length`` before a byte is read, or
   as soon as the bytes read pass the limit (the rest is never read);
-* not declared ``application/json`` (or ``+json``): 415 naming ``header.content-type``;
+* not declared ``application/json`` (or ``+json``): 415 naming ``header.content-type``; a
+  POST, PUT, PATCH or DELETE must be declared so even without a body (a browser sends such
+  a request across sites only after asking the gateway, which says no);
 * not UTF-8 (422 naming the byte), not JSON (422 naming line and column), nested deeper
   than ``MAX_DEPTH`` (422; far deeper, the parser's own recursion guard stops it early);
 * holding something JSON cannot mean as a number or text (422 naming the field, such as
@@ -34,6 +36,8 @@ __all__ = ["BODY_LIMIT", "MAX_DEPTH", "MAX_DIGITS", "BodyGate", "Refusal", "chec
 BODY_LIMIT = 256 * 1024
 #: Nesting of arrays and objects a body may have (the deepest request model has 3).
 MAX_DEPTH = 32
+#: Methods that act: each must be declared JSON, even without a body.
+_ACTING = frozenset({"POST", "PUT", "PATCH", "DELETE"})
 #: Digits an integer may have (a double holds 17 significant digits; positions have 8).
 MAX_DIGITS = 20
 
@@ -227,16 +231,21 @@ class BodyGate:
 
     @staticmethod
     def _check(scope: Scope, raw: bytes) -> Refusal | None:
-        if not raw:
+        acting = scope.get("method") in _ACTING
+        if not raw and not acting:
             return None
-        if not _is_json(_header(scope, b"content-type")):
+        declared = _header(scope, b"content-type")
+        if not _is_json(declared):
+            # Bodyless acts too: a page of another site can send a POST without a body or
+            # with a form or text type unasked, never one declared JSON (gateway.api.request_guard).
             return Refusal(
                 415,
                 "header.content-type",
-                "application/json (or a +json type) when there is a body",
-                f"the body is declared {_header(scope, b'content-type') or 'as nothing'}",
+                "application/json (or a +json type) on every POST, PUT, PATCH and DELETE, "
+                "with a body or without",
+                f"the request is declared {declared or 'as nothing'}",
             )
-        return check_json(raw)
+        return check_json(raw) if raw else None
 
     async def _refuse(self, refusal: Refusal, scope: Scope, receive: Receive, send: Send) -> None:
         # The refusal goes through the middlewares inside this one's caller (audit, metrics)

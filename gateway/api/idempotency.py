@@ -14,22 +14,46 @@ Only responses after which the request may have acted are stored: 2xx, 5xx excep
 an operation in ``Location`` (a motion that ended ``failed`` is a 409 and may have moved the
 axis). Other 4xx and 503 mean nothing was done (refused, leased, loop down: the outcome is
 ``not_done``), so a retry may act then. The
-store is bounded: ``capacity`` keys (oldest dropped first) for ``ttl`` seconds.
+store in memory is bounded: ``capacity`` keys (oldest dropped first) for ``ttl`` seconds; the
+state store below it answers every key for ``ttl`` seconds (``clock``: seconds since the epoch).
+
+Keys outlive the process: they are kept in the state store (``gateway.store``) too. The key of
+a request that starts an operation is written with the operation before its first frame goes
+out (``service.store.request_key`` tells the operation which key it serves), and the response
+is written before it is sent. A retry that finds no key in memory looks there: a stored
+response is replayed; a key whose request was cut short by a crash answers its operation as
+it stands now (200 ``done``, 202 still running, the motion problem when it ``failed`` or is
+``unknown``), replayed, and nothing acts again.
 """
 
 from __future__ import annotations
 
 import asyncio
 import hashlib
+import logging
 import time
 from collections import OrderedDict
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from fastapi import FastAPI
+from fastapi.responses import JSONResponse
+from starlette.routing import NoMatchFound
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
+from gateway.api.motion_problems import motion_problem
 from gateway.api.problems import Problem, problem_response, problem_type
+from gateway.errors import NotFoundError
+from gateway.service.operations.registry import Operations
+from gateway.service.operations.types import OperationState
+from gateway.service.store.database import StateStore
+from gateway.service.store.records import (
+    RequestKey,
+    StoredKey,
+    load_key,
+    request_key,
+    save_response,
+)
 
 __all__ = [
     "HEADER",
@@ -38,6 +62,8 @@ __all__ = [
     "IdempotencyStore",
     "install_idempotency",
 ]
+
+log = logging.getLogger("gateway.api")
 
 HEADER = "Idempotency-Key"
 REPLAYED_HEADER = "Idempotent-Replayed"
@@ -72,7 +98,7 @@ class IdempotencyStore:
         self,
         capacity: int = 10_000,
         ttl: float = 86_400.0,
-        clock: Callable[[], float] = time.monotonic,
+        clock: Callable[[], float] = time.time,
     ) -> None:
         self.capacity = capacity
         self.ttl = ttl
@@ -81,6 +107,10 @@ class IdempotencyStore:
 
     def __len__(self) -> int:
         return len(self._entries)
+
+    def now(self) -> float:
+        """The store's clock (seconds since the epoch: keys are compared across restarts)."""
+        return self._clock()
 
     def get(self, key: tuple[str, ...]) -> Entry | None:
         """The live entry of ``key``."""
@@ -130,9 +160,10 @@ def _invalid(detail: str, rule: str) -> Problem:
 class IdempotencyMiddleware:
     """Replays the stored response of a POST retried with the same ``Idempotency-Key``."""
 
-    def __init__(self, app: ASGIApp, store: IdempotencyStore) -> None:
+    def __init__(self, app: ASGIApp, store: IdempotencyStore, durable: StateStore) -> None:
         self.app = app
         self.store = store
+        self.durable = durable
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         """Serve one ASGI connection: POSTs with a key are stored or replayed."""
@@ -154,7 +185,25 @@ class IdempotencyMiddleware:
         client = hashlib.sha256((_header(scope, b"authorization") or "").encode()).hexdigest()
         ident = (client, key, "POST", str(scope.get("path", "")))
         digest = hashlib.sha256(scope.get("query_string", b"") + b"\x00" + body).hexdigest()
+        durable_key = RequestKey.of(ident, digest, self.store.now())
         entry = self.store.get(ident)
+        if entry is None:
+            stored = await self._stored(durable_key)
+            entry = self.store.get(ident)  # a request with the key may have begun meanwhile
+            if entry is None and stored is not None:
+                if stored.fingerprint != digest:
+                    problem = _invalid(
+                        f"{HEADER} {key!r} was used for a different request to this path",
+                        f"one {HEADER} per request: a retry repeats the query and body exactly",
+                    )
+                    await problem_response(problem)(scope, receive, send)
+                    return
+                if stored.status is not None:
+                    await _send(send, stored.status, stored.headers, stored.body)
+                    return
+                if stored.operation is not None:
+                    await _answer_operation(scope, receive, send, stored.operation)
+                    return
         while entry is not None:
             if entry.fingerprint != digest:
                 problem = _invalid(
@@ -169,14 +218,26 @@ class IdempotencyMiddleware:
                 return
             entry = self.store.get(ident)  # the first was not stored: this one acts
         entry = self.store.begin(ident, digest)
+        token = request_key.set(durable_key)
         try:
-            await self._first(scope, _replaying(more, receive), send, entry)
+            await self._first(scope, _replaying(more, receive), send, entry, durable_key)
         finally:
+            request_key.reset(token)
             if entry.status is None:
                 self.store.forget(ident, entry)
             entry.done.set()
 
-    async def _first(self, scope: Scope, receive: Receive, send: Send, entry: Entry) -> None:
+    async def _stored(self, key: RequestKey) -> StoredKey | None:
+        try:
+            ttl = self.store.ttl
+            return await self.durable.run(lambda c: load_key(c, key.ident, key.created, ttl))
+        except Exception as exc:  # unreadable: the key is as unknown as before the store
+            log.error("idempotency: the state store cannot be read: %s", exc)
+            return None
+
+    async def _first(
+        self, scope: Scope, receive: Receive, send: Send, entry: Entry, key: RequestKey
+    ) -> None:
         status = 0
         headers: list[tuple[bytes, bytes]] = []
         chunks: list[bytes] = []
@@ -191,9 +252,52 @@ class IdempotencyMiddleware:
                 if not message.get("more_body", False) and _stored(status, headers):
                     entry.headers, entry.body = headers, b"".join(chunks)
                     entry.status = status
+                    await self._keep(key, entry)
             await send(message)
 
         await self.app(scope, receive, capture)
+
+    async def _keep(self, key: RequestKey, entry: Entry) -> None:
+        """The response on disk before the client has it: a retry after a restart gets it."""
+        status, headers, body = entry.status, entry.headers, entry.body
+        assert status is not None
+        try:
+            await self.durable.run(lambda c: save_response(c, key, status, headers, body))
+        except Exception as exc:  # it has acted already: answer all the same, and say so
+            log.error("idempotency: the response to a key was not stored: %s", exc)
+
+
+async def _answer_operation(scope: Scope, receive: Receive, send: Send, ident: str) -> None:
+    """The operation a key's request started before the process stopped, as it stands."""
+    operations: Operations = scope["app"].state.operations
+    try:
+        op = operations.get(ident)
+    except NotFoundError:
+        problem = Problem(
+            type=problem_type("conflict"),
+            title="Conflict",
+            status=409,
+            detail=f"{HEADER}: its request started operation {ident}, which is no longer "
+            "retained; nothing was done again",
+            field=f"header.{HEADER}",
+        )
+        response = problem_response(problem)
+    else:
+        try:
+            location = str(scope["app"].url_path_for("get_operation", id=op.id))
+        except NoMatchFound:
+            location = f"/api/v1/operations/{op.id}"
+        view = op.view()
+        if op.final and op.state is not OperationState.DONE:
+            raised = motion_problem(view, location)
+            response = problem_response(raised.problem, None, raised.headers)
+        else:
+            status = 200 if op.state is OperationState.DONE else 202
+            response = JSONResponse(
+                view.model_dump(mode="json"), status_code=status, headers={"Location": location}
+            )
+    response.headers[REPLAYED_HEADER] = "true"
+    await response(scope, receive, send)
 
 
 async def _read_body(receive: Receive) -> tuple[bytes, list[Message]]:
@@ -224,26 +328,32 @@ def _replaying(read: list[Message], receive: Receive) -> Receive:
 
 
 async def _replay(entry: Entry, send: Send) -> None:
-    headers = [(k, v) for k, v in entry.headers if k.lower() != REPLAYED_HEADER.lower().encode()]
-    headers.append((REPLAYED_HEADER.lower().encode(), b"true"))
     assert entry.status is not None
-    await send({"type": "http.response.start", "status": entry.status, "headers": headers})
-    await send({"type": "http.response.body", "body": entry.body, "more_body": False})
+    await _send(send, entry.status, entry.headers, entry.body)
+
+
+async def _send(send: Send, status: int, stored: list[tuple[bytes, bytes]], body: bytes) -> None:
+    headers = [(k, v) for k, v in stored if k.lower() != REPLAYED_HEADER.lower().encode()]
+    headers.append((REPLAYED_HEADER.lower().encode(), b"true"))
+    await send({"type": "http.response.start", "status": status, "headers": headers})
+    await send({"type": "http.response.body", "body": body, "more_body": False})
 
 
 def install_idempotency(
     app: FastAPI,
+    durable: StateStore,
     *,
     capacity: int = 10_000,
     ttl: float = 86_400.0,
-    clock: Callable[[], float] = time.monotonic,
+    clock: Callable[[], float] = time.time,
 ) -> IdempotencyStore:
-    """Make every POST of ``app`` honour ``Idempotency-Key``; the store (``app.state.idempotency``).
+    """Make every POST of ``app`` honour ``Idempotency-Key``; the store (``app.state.idempotency``),
+    backed by ``durable`` (the state store) across restarts.
 
     Install it after ``install_problem_handlers`` and before the audit middleware, so that a
     replay is audited too and the replayed response is the first one as the client saw it.
     """
     store = IdempotencyStore(capacity, ttl, clock)
-    app.add_middleware(IdempotencyMiddleware, store=store)
+    app.add_middleware(IdempotencyMiddleware, store=store, durable=durable)
     app.state.idempotency = store
     return store

@@ -44,6 +44,8 @@ from gateway.service.runtime.runtime import Runtime
 __all__ = [
     "CONTENT_TYPE",
     "HTTP_BUCKETS",
+    "KNOWN_METHODS",
+    "OTHER_METHOD",
     "TRANSACTION_BUCKETS",
     "Histogram",
     "HttpMetrics",
@@ -53,6 +55,7 @@ __all__ = [
     "MetricsSource",
     "RouteTemplates",
     "WsStats",
+    "method_label",
 ]
 
 CONTENT_TYPE = "text/plain; version=0.0.4; charset=utf-8"
@@ -64,6 +67,17 @@ TRANSACTION_BUCKETS = (0.005, 0.01, 0.02, 0.05, 0.1, 0.2, 0.5, 1.0, 2.0, 5.0)
 HTTP_BUCKETS = (0.001, 0.0025, 0.005, 0.01, 0.025, 0.05, 0.1, 0.25, 0.5, 1.0, 2.5, 5.0, 10.0, 60.0)
 #: the route label of requests that matched no route (scanners must not explode the series)
 UNMATCHED = "<unmatched>"
+#: the methods HTTP defines (RFC 9110, PATCH RFC 5789): any other (WebDAV's PROPFIND, a
+#: scanner's invention) is counted as ``OTHER_METHOD``, so methods cannot grow the series
+KNOWN_METHODS = frozenset(
+    {"GET", "HEAD", "POST", "PUT", "DELETE", "CONNECT", "OPTIONS", "TRACE", "PATCH"}
+)
+OTHER_METHOD = "other"
+
+
+def method_label(method: str) -> str:
+    """The ``method`` label of a request's method: itself when HTTP defines it, else other."""
+    return method if method in KNOWN_METHODS else OTHER_METHOD
 
 
 class LoopSource(Protocol):
@@ -201,7 +215,8 @@ class HttpMetricsMiddleware:
         def count(status: int | None) -> None:
             if status is not None:  # None: the client went away before any answer
                 seconds = time.perf_counter() - began
-                self.http.observe(self.routes.label(scope), scope["method"], status, seconds)
+                method = method_label(scope["method"])
+                self.http.observe(self.routes.label(scope), method, status, seconds)
                 log_access(scope, status)
 
         await call_noting_status(self.app, scope, receive, send, count)

@@ -112,6 +112,34 @@ class CellMetrics:
                 count = self.by_controller.get((ref.id, counter), 0)
                 out.sample(metric, _ctl(ref.id, ref.name), count)
         self._render_axes(out)
+        self._render_adapters(out)
+
+    def _render_adapters(self, out: Exposition) -> None:
+        """Each local adapter as found when its port was last opened: a loop on a network
+        line, or not opened yet, has no sample (nothing is known)."""
+        adapters = sorted(
+            (
+                (name, report)
+                for name, scheduler in self.gateway.schedulers.items()
+                if (report := scheduler.transport.adapter) is not None
+            ),
+            key=lambda item: item[0],
+        )
+        metric = "rc233_loop_adapter_latency_timer_seconds"
+        out.family(metric, "gauge", "The USB adapter's latency timer (sysfs latency_timer).")
+        for name, report in adapters:
+            if report.latency_timer_ms is not None:
+                out.sample(metric, {"loop": name}, report.latency_timer_ms / 1000)
+        metric = "rc233_loop_adapter_slow"
+        out.family(
+            metric, "gauge", "1 when the adapter's latency timer is above 2 ms: slow exchanges."
+        )
+        for name, report in adapters:
+            out.sample(metric, {"loop": name}, int(report.warning is not None))
+        metric = "rc233_loop_adapter_low_latency"
+        out.family(metric, "gauge", "1 when the driver took the tty's low-latency flag.")
+        for name, report in adapters:
+            out.sample(metric, {"loop": name}, int(report.low_latency))
 
     def _render_axes(self, out: Exposition) -> None:
         cache = self.gateway.state

@@ -30,6 +30,14 @@ _BODY_STATUSES = {
     "415": "The body is not declared application/json",
 }
 
+#: what the body gate answers a request that acts without declaring JSON, bodyless too
+_ACTING = frozenset({"POST", "PUT", "PATCH", "DELETE"})
+_UNDECLARED = "The request is not declared application/json (every POST, PUT and DELETE is)"
+_THROTTLED = (
+    "Too many wrong tokens from this address: retry after Retry-After seconds "
+    "(gateway.api.auth_failures)"
+)
+
 
 def _is_error_status(status: str) -> bool:
     return status in ("default", "4XX", "5XX") or (status.isdigit() and int(status) >= 400)
@@ -54,9 +62,12 @@ def document_problems(schema: dict[str, Any], secured: Mapping[tuple[str, str], 
             if secured.get((path, method.upper())):
                 for status in _AUTH_STATUSES:
                     responses.setdefault(status, {"description": HTTPStatus(int(status)).phrase})
+                responses.setdefault("429", {"description": _THROTTLED})
             if "requestBody" in operation:
                 for status, text in _BODY_STATUSES.items():
                     responses.setdefault(status, {"description": text})
+            elif method.upper() in _ACTING:
+                responses.setdefault("415", {"description": _UNDECLARED})
             for status, response in responses.items():
                 if _is_error_status(str(status)) and isinstance(response, dict):
                     response["content"] = {k: dict(v) for k, v in content.items()}

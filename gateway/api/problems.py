@@ -14,6 +14,7 @@ ConflictError              409     ``field``; ``holder`` when a lease is held by
 DeviceError                504     ``outcome`` (``not_done`` / ``unknown``)
 LoopDown                   503     ``Retry-After`` (integer seconds, >= 1); ``outcome``
 DeadlineExpired            503     ``Retry-After: 1``; ``outcome`` ``not_done``
+StateUnavailable           503     ``Retry-After: 5``; ``outcome`` ``not_done`` (not recorded)
 ProtocolError              502     the device's bytes were not what the manual allows
 Starlette HTTPException    its     404 / 405 (``Allow`` kept) / 401 ... as problems
 anything else              500     no internals: a reference to find the traceback in the log
@@ -49,6 +50,7 @@ from gateway.errors import (
     NotFoundError,
     ProgramError,
     ProtocolError,
+    StateUnavailable,
 )
 from gateway.service.runtime.bus_types import DeadlineExpired, LoopDown, TransactionError
 
@@ -261,6 +263,14 @@ def _problem_for(exc: Exception) -> tuple[Problem, dict[str, str]] | None:
             detail=str(exc),
             outcome="unknown" if exc.in_flight else "not_done",
         ), {"Retry-After": _retry_after(exc.retry_after)}
+    if isinstance(exc, StateUnavailable):
+        return Problem(
+            type=problem_type("state-unavailable"),
+            title="The state store cannot record the request",
+            status=503,
+            detail=str(exc),
+            outcome="not_done",
+        ), {"Retry-After": "5"}
     if isinstance(exc, DeadlineExpired):
         return Problem(
             type=problem_type("deadline-expired"),
@@ -378,6 +388,7 @@ def install_problem_handlers(app: FastAPI) -> None:
         LoopDown,
         DeadlineExpired,
         ProtocolError,
+        StateUnavailable,
     ):
         app.add_exception_handler(cls, _on_gateway_error)
     app.add_exception_handler(Exception, _on_unexpected)

@@ -34,6 +34,7 @@ from starlette.routing import BaseRoute
 from starlette.types import ASGIApp, Receive, Scope, Send
 
 from gateway.api import routes_axes
+from gateway.api.auth_failures import failures_of
 from gateway.api.security import api_routes, auth_of_scope, bearer_of_headers
 from gateway.errors import NotFoundError
 from gateway.service.control import ControlView
@@ -114,6 +115,12 @@ class AxisReadPath:
         """The encoded view of ``ident``; None when the routed read must answer."""
         # Who is not let in (no token, an unknown one, a role below viewer) gets the routed
         # read's problem.
+        # An address made to wait after wrong tokens gets the routed read's 429: a right
+        # guess answered here would tell it apart (gateway.api.auth_failures).
+        failures = failures_of(scope)
+        client = scope.get("client")
+        if failures is not None and client and failures.retry_after(client[0]) is not None:
+            return None
         principal = auth_of_scope(scope).authenticate(bearer_of_headers(scope), "")
         if principal is None or not principal.role.allows(Role.VIEWER):
             return None

@@ -2,9 +2,11 @@
 
 A browser WebSocket carries its token in the query (``?token=...``), which uvicorn prints in
 its access and WebSocket lines (``"WebSocket /api/v1/ws?token=..." [accepted]``), and a
-client may put one in any query. ``redact`` replaces the value of every ``token``,
-``access_token`` and ``api_key`` query parameter, and of a ``Bearer`` credential, with
-``***``; ``install_log_redaction`` does it to every log record of the process.
+client may put one in any query, under an encoded name too (``?tok%65n=``, which the server
+decodes to ``token``). ``redact`` replaces the value of every ``token``, ``access_token`` and
+``api_key`` query parameter, by its decoded name, and of a ``Bearer`` credential, with
+``***``; ``install_log_redaction`` does it to every log record of the process, and takes the
+query off uvicorn's WebSocket line altogether.
 """
 
 from __future__ import annotations
@@ -13,24 +15,47 @@ import logging
 import re
 from collections.abc import Callable
 from typing import Any
+from urllib.parse import unquote_plus
 
-__all__ = ["MASK", "install_log_redaction", "redact"]
+__all__ = ["MASK", "SECRET_NAMES", "install_log_redaction", "redact"]
 
 MASK = "***"
+#: query parameter names whose value is a credential, once percent-decoded and in any case:
+#: a server decodes ``?tok%65n=`` to ``token`` (the WebSocket takes it), so the log must too
+SECRET_NAMES = frozenset({"token", "access_token", "api_key"})
 
-_QUERY_SECRET = re.compile(r"(?i)((?:^|[?&;\s\"'])(?:token|access_token|api_key)=)[^&\s\"'#]*")
-_BEARER = re.compile(r"(?i)(bearer\s+)[A-Za-z0-9._~+/=-]+")
+_QUERY_PARAM = re.compile(r"(^|[?&;\s\"'])([A-Za-z0-9_.~%+-]+)=([^&\s\"'#]*)")
+_BEARER = re.compile(r"(?i)(bearer(?:\s|%20|\+)+)[A-Za-z0-9._~+/=%-]+")
+#: uvicorn's WebSocket lines (``'%s - "WebSocket %s" [accepted]'``): their path argument
+_UVICORN_WS = '"WebSocket %s"'
+
+
+def _mask_param(match: re.Match[str]) -> str:
+    if unquote_plus(match[2]).strip().lower() in SECRET_NAMES:
+        return f"{match[1]}{match[2]}={MASK}"
+    return match[0]
 
 
 def redact(text: str) -> str:
-    """``text`` with every token value (query parameter or bearer credential) masked."""
-    if "=" not in text and "earer" not in text:
+    """``text`` with every token value (query parameter, by its decoded name, or bearer
+    credential) masked."""
+    if "=" not in text and "earer" not in text and "EARER" not in text:
         return text
-    return _BEARER.sub(rf"\g<1>{MASK}", _QUERY_SECRET.sub(rf"\g<1>{MASK}", text))
+    return _BEARER.sub(rf"\g<1>{MASK}", _QUERY_PARAM.sub(_mask_param, text))
+
+
+def _without_query(record: logging.LogRecord) -> None:
+    """uvicorn's WebSocket line without the query of its path: a browser's token is there,
+    and nothing else of it belongs in a log."""
+    args = record.args
+    if isinstance(args, tuple) and len(args) >= 2 and isinstance(args[1], str):
+        record.args = (args[0], args[1].split("?", 1)[0], *args[2:])
 
 
 def _clean(record: logging.LogRecord) -> None:
     """Mask secrets in ``record``'s message (formatted with its arguments), in place."""
+    if str(record.name).startswith("uvicorn") and _UVICORN_WS in str(record.msg):
+        _without_query(record)
     try:
         message = record.getMessage()
     except Exception:  # arguments that do not format: logging reports that itself

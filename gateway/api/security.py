@@ -17,6 +17,7 @@ from __future__ import annotations
 import hashlib
 import hmac
 import ipaddress
+import math
 import re
 import secrets
 from collections.abc import Callable, Iterable, Iterator
@@ -38,6 +39,7 @@ try:  # FastAPI >= 0.16x: included routers are branches, flattened by this
 except ImportError:  # pragma: no cover - older FastAPI
     iter_route_contexts = None
 
+from gateway.api.auth_failures import AuthFailures, failures_of, throttled_problem
 from gateway.api.problems import ApiProblem, Problem, problem_type
 from gateway.service.roles import Role
 
@@ -182,9 +184,11 @@ class AuthConfig:
         return None if entry is None else Principal(entry.name, entry.role, client)
 
 
-def install_security(app: FastAPI, auth: AuthConfig) -> None:
-    """Make ``auth`` the mode of ``app``'s ``require`` dependencies."""
+def install_security(app: FastAPI, auth: AuthConfig, failures: AuthFailures | None = None) -> None:
+    """Make ``auth`` the mode of ``app``'s ``require`` dependencies; ``failures`` counts
+    and records failed authentications (back-off per client address)."""
     app.state.auth = auth
+    app.state.auth_failures = failures
 
 
 def _auth_of(connection: HTTPConnection) -> AuthConfig:
@@ -228,16 +232,31 @@ class RoleRequirement:
         """Authenticate ``request`` and check its role."""
         auth = _auth_of(request)
         token = credentials.credentials if credentials is not None else None
-        principal = auth.authenticate(token, _client(request))
+        client = _client(request)
+        failures = None if auth.no_auth else failures_of(request.scope)
+        what = f"{request.method} {request.scope['path']}"  # only for a record: cheap
+        if failures is not None:
+            wait = failures.retry_after(client)
+            if wait is not None:
+                # Refused before the token is looked at: a right guess looks like a wrong one.
+                request.state.auth_failed = True  # recorded by AuthFailures, not per request
+                failures.throttled(client, what)
+                raise ApiProblem(throttled_problem(wait), {"Retry-After": str(math.ceil(wait))})
+        principal = auth.authenticate(token, client)
         if principal is None:
             if token is None:
                 detail, header = "this request needs a bearer token (Authorization: Bearer)", _REALM
             else:
                 detail, header = "the bearer token is not known", f'{_REALM}, error="invalid_token"'
+            if failures is not None:
+                request.state.auth_failed = True
+                failures.failed(client, what, guessed=token is not None)
             problem = Problem(
                 type=problem_type("unauthorized"), title="Unauthorized", status=401, detail=detail
             )
             raise ApiProblem(problem, {"WWW-Authenticate": header})
+        if failures is not None:
+            failures.succeeded(client)
         request.state.principal = principal  # the audit log records who it was
         if not principal.role.allows(self.role):
             problem = Problem(

@@ -5,7 +5,11 @@ One connection, one feed client. Decisions (see ``ws_messages.CLOSE_CODES``):
 * Authentication uses the REST tokens (``Authorization: Bearer``, or ``?token=`` for browsers,
   which cannot set headers on a WebSocket); any role may subscribe. The handshake is
   accepted and then closed with 4401 (no or unknown token) or 4403 (role too weak), because
-  a browser sees a close code but never the status of a refused handshake.
+  a browser sees a close code but never the status of a refused handshake. Wrong tokens
+  count towards the address's back-off as on HTTP (``gateway.api.auth_failures``): while it
+  waits, the handshake is closed with 4429 before its token is looked at. A page of another
+  site, or a name that is not the gateway's, is refused before the handshake is accepted
+  (``gateway.api.request_guard``: HTTP 403).
 * Client messages are JSON text: ``subscribe`` (topics, optional ``since``/``stream`` to
   resume), ``unsubscribe``, ``ping``. A message that does not fit is answered with an
   ``error`` naming the field and the rule; the connection stays open.
@@ -29,12 +33,14 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
+import math
 from typing import Any, Protocol
 
 from fastapi import APIRouter, FastAPI, WebSocket
 from pydantic import ValidationError
 
-from gateway.api.security import AuthConfig, authenticate_websocket
+from gateway.api.auth_failures import failures_of
+from gateway.api.security import AuthConfig, authenticate_websocket, bearer_of_headers
 from gateway.api.ws_direct import DirectWriter, direct_writer
 from gateway.api.ws_messages import (
     ClientMessage,
@@ -117,11 +123,26 @@ async def serve_client(
 ) -> None:
     """Run one connection: authenticate, then feed it until either side ends it."""
     auth = getattr(ws.app.state, "auth", None)
-    principal = authenticate_websocket(ws, auth if isinstance(auth, AuthConfig) else AuthConfig())
+    auth = auth if isinstance(auth, AuthConfig) else AuthConfig()
+    failures = None if auth.no_auth else failures_of(ws.scope)
+    address = ws.client.host if ws.client else "unknown"
+    wait = failures.retry_after(address) if failures is not None else None
+    if failures is not None and wait is not None:
+        # As for HTTP: refused before the token is looked at (gateway.api.auth_failures).
+        failures.throttled(address, f"WebSocket {ws.url.path}")
+        await ws.accept()
+        await ws.close(4429, f"too many failed authentications: retry in {math.ceil(wait)} s")
+        return
+    principal = authenticate_websocket(ws, auth)
     await ws.accept()
     if principal is None:
+        if failures is not None:
+            given = bool(bearer_of_headers(ws.scope) or ws.query_params.get("token"))
+            failures.failed(address, f"WebSocket {ws.url.path}", guessed=given)
         await ws.close(4401, "missing or unknown token")
         return
+    if failures is not None:
+        failures.succeeded(address)
     if not principal.role.allows(Role.VIEWER):
         await ws.close(4403, f"the {principal.role} role may not subscribe")
         return

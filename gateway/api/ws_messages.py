@@ -42,6 +42,8 @@ CLOSE_CODES: dict[int, str] = {
     1012: "service restart: uvicorn closes every socket when the server stops",
     4401: "unauthorized: missing or unknown token (Authorization: Bearer, or ?token=)",
     4403: "forbidden: the token's role may not subscribe",
+    4429: "too many failed authentications from this address: retry after the seconds the "
+    "reason gives",
     4008: "backlog exceeded: the client did not read and its queue of unsent messages "
     "(ws.backlog) overflowed",
 }

@@ -5,30 +5,44 @@ site must hold for the values to work, on this machine, as the user running the 
 
 * ``audit_log``: its directory exists and this user may write the file (the gateway appends
   every mutating request to it; a file it cannot write would lose the record);
-* ``loops[i].port``: a device path that exists, is a character device and may be opened for
-  reading and writing, or a well-formed ``socket://HOST:PORT`` / ``rfc2217://HOST:PORT`` (a
-  network line is not dialled: whether it answers is what ``/readyz`` reports);
+* ``loops[i].port``: a serial port (a terminal, not merely a character device) or a
+  well-formed ``socket://HOST:PORT`` / ``rfc2217://HOST:PORT`` (a network line is not dialled:
+  whether it answers is what ``/readyz`` reports), each line used by one loop only
+  (``gateway.cli.port_checks``). A device that does not exist yet is a warning: that loop
+  starts down and comes up when it appears (``--strict``: a problem);
 * ``security.tokens``: at least one, unless the API is to run open (``--no-auth``); the
   example file's placeholders are not digests, so they fail the schema.
 
-Both kinds of problem are listed together, each named by its key, so one run shows them all.
-``serve`` runs the same checks and refuses to start while any is left.
+Both kinds of problem are listed together, each named by its key, so one run shows them all
+(the first 50, then how many more). The file is read with bounds first (size, encoding,
+nesting, key length: ``gateway.service.config_bounds``), so no file makes the check run out of
+memory or time. ``serve`` runs the same checks and refuses to start while any is left; it
+starts with warnings and logs them.
 """
 
 from __future__ import annotations
 
 import argparse
 import os
-import stat
-import tomllib
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from gateway.service.config import ConfigError, GatewayConfig, parse_config
-from gateway.transport import LineKind
+from pydantic import ValidationError
 
-__all__ = ["NO_TOKENS", "add_check_config_parser", "check_file", "site_problems"]
+from gateway.cli.port_checks import port_findings
+from gateway.service.config import ConfigError, GatewayConfig, schema_problems
+from gateway.service.config_bounds import UnreadableConfig, listed, read_toml
+
+__all__ = [
+    "NO_TOKENS",
+    "ConfigReport",
+    "add_check_config_parser",
+    "check_file",
+    "check_report",
+    "site_problems",
+]
 
 #: the problem of a configuration without tokens, when the API is not to run open
 NO_TOKENS = (
@@ -40,6 +54,8 @@ NO_TOKENS = (
 def _audit_problem(value: Any) -> str | None:
     if value is None:
         return None
+    if "\0" in str(value):  # the OS refuses such a path: said here, not as a traceback
+        return f"audit_log: {str(value)!r} holds a NUL character"
     path = Path(str(value))
     if path.is_dir():
         return f"audit_log: {path} is a directory, not a file"
@@ -53,65 +69,67 @@ def _audit_problem(value: Any) -> str | None:
     return None
 
 
-def _port_problem(where: str, value: Any) -> str | None:
-    url = str(value)
-    try:
-        kind = LineKind.of(url)
-    except ValueError as exc:
-        return f"{where}: {exc}"
-    if kind is not LineKind.DEVICE:
-        return None
-    try:
-        mode = os.stat(url).st_mode
-    except OSError as exc:
-        return f"{where}: {url}: {exc.strerror}"
-    if not stat.S_ISCHR(mode):
-        return f"{where}: {url} is not a serial device (a character device)"
-    if not os.access(url, os.R_OK | os.W_OK):
-        return f"{where}: {url} cannot be opened for reading and writing by this user"
-    return None
+@dataclass
+class ConfigReport:
+    """What ``check-config`` found in a file: its configuration (None when it breaks the
+    schema), the problems (nothing starts while one is left) and the warnings."""
+
+    config: GatewayConfig | None
+    problems: list[str] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
+
+
+def _site(data: Mapping[str, Any], *, ports: bool) -> ConfigReport:
+    report = ConfigReport(None)
+    audit = os.environ.get("RC233_AUDIT_LOG", data.get("audit_log"))
+    if (problem := _audit_problem(audit)) is not None:
+        report.problems.append(problem)
+    if ports:
+        found = port_findings(data.get("loops"))
+        report.problems += found.problems
+        report.warnings += found.warnings
+    return report
 
 
 def site_problems(data: Mapping[str, Any], *, ports: bool = True) -> list[str]:
     """What the site must hold for ``data`` (the file's values, checked or not) to work;
     ``ports=False`` leaves the loops' ports out (``serve --simulate`` replaces them)."""
-    problems: list[str] = []
-    audit = os.environ.get("RC233_AUDIT_LOG", data.get("audit_log"))
-    if (problem := _audit_problem(audit)) is not None:
-        problems.append(problem)
-    loops = data.get("loops")
-    if ports and isinstance(loops, Sequence):
-        for i, loop in enumerate(loops):
-            problem = (
-                _port_problem(f"loops[{i}].port", loop["port"])
-                if (isinstance(loop, Mapping) and "port" in loop)
-                else None
-            )
-            if problem is not None:
-                problems.append(problem)
-    return problems
+    return _site(data, ports=ports).problems
+
+
+def check_report(
+    path: Path, *, no_auth: bool = False, ports: bool = True, strict: bool = False
+) -> ConfigReport:
+    """Everything ``check-config`` finds in ``path``; ``strict``: warnings are problems."""
+    try:
+        data = read_toml(path)  # bounded: size, encoding, nesting, key length
+    except OSError as exc:
+        return ConfigReport(None, [f"(file): cannot read {path} ({exc.strerror})"])
+    except UnreadableConfig as exc:
+        return ConfigReport(None, [f"(file): {exc}"])
+    config: GatewayConfig | None = None
+    schema: list[str] = []
+    try:
+        config = GatewayConfig(**data)
+    except ValidationError as exc:
+        schema = schema_problems(exc)
+    report = _site(data, ports=ports)
+    report.config = config
+    report.problems[:0] = schema
+    if config is not None and not no_auth and not config.security.tokens:
+        report.problems.append(NO_TOKENS)
+    if strict:
+        report.problems += report.warnings
+        report.warnings = []
+    return report
 
 
 def check_file(
     path: Path, *, no_auth: bool = False, ports: bool = True
 ) -> tuple[GatewayConfig | None, list[str]]:
     """The configuration of ``path`` (None when it breaks the schema) and every problem."""
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except OSError as exc:
-        return None, [f"(file): cannot read {path} ({exc.strerror})"]
-    except tomllib.TOMLDecodeError as exc:
-        return None, [f"(file): not valid TOML ({exc})"]
-    problems: list[str] = []
-    config: GatewayConfig | None = None
-    try:
-        config = parse_config(data, str(path))
-    except ConfigError as exc:
-        problems += [line.strip() for line in str(exc).splitlines()[1:]]
-    problems += site_problems(data, ports=ports)
-    if config is not None and not no_auth and not config.security.tokens:
-        problems.append(NO_TOKENS)
-    return config, problems
+    report = check_report(path, no_auth=no_auth, ports=ports)
+    return report.config, report.problems
 
 
 def problems_error(path: Path, problems: Sequence[str]) -> ConfigError:
@@ -121,15 +139,20 @@ def problems_error(path: Path, problems: Sequence[str]) -> ConfigError:
 
 
 def problems_lines(problems: Sequence[str]) -> list[str]:
-    """``problems`` indented, one a line."""
-    return [f"  {problem}" for problem in problems]
+    """``problems`` indented, one a line: the first ``MAX_LISTED``, then how many more."""
+    return [f"  {problem}" for problem in listed(problems)]
 
 
 def _check(args: argparse.Namespace) -> int:
-    config, problems = check_file(args.file, no_auth=args.no_auth)
+    report = check_report(args.file, no_auth=args.no_auth, strict=args.strict)
+    config, problems = report.config, report.problems
     if problems:
         print(f"{args.file}: {len(problems)} problem(s)")
         print("\n".join(problems_lines(problems)))
+    if report.warnings:
+        print(f"{args.file}: {len(report.warnings)} warning(s)")
+        print("\n".join(problems_lines(report.warnings)))
+    if problems:
         return 1
     assert config is not None
     controllers = sum(len(loop.controllers) for loop in config.loops)
@@ -151,5 +174,10 @@ def add_check_config_parser(subparsers: Any) -> None:
     check.add_argument("file", type=Path, metavar="FILE", help="the cell's TOML file")
     check.add_argument(
         "--no-auth", action="store_true", help="the API will run open: no token is needed"
+    )
+    check.add_argument(
+        "--strict",
+        action="store_true",
+        help="warnings (a serial device not present now) are problems too (exit 1)",
     )
     check.set_defaults(func=_check)

@@ -1,7 +1,8 @@
 """``rc233-gateway serve``: the REST/WebSocket API on the loops of a configuration file.
 
 ``serve --config cell.toml`` runs the loops the file describes, once every problem
-``rc233-gateway check-config`` finds in it is fixed. ``serve --simulate`` runs in-process
+``rc233-gateway check-config`` finds in it is fixed; a loop whose device is not there (yet)
+starts down and comes up when it appears. ``serve --simulate`` runs in-process
 simulated loops: without a file one loop (``sim``) with three controllers whose axes are named
 (gateway/service/simulated.py); with ``--config`` the file's loops, controllers, names, units,
 tokens and audit log, each loop's port replaced by a simulated loop (9600 bps). Either takes
@@ -19,8 +20,10 @@ import argparse
 import asyncio
 import gc
 import logging
+import shutil
 import socket
 import sys
+import tempfile
 from pathlib import Path
 from types import FrameType
 from typing import Any
@@ -30,7 +33,8 @@ import uvicorn
 from gateway.api.app import create_app
 from gateway.api.security import AuthConfig, is_loopback
 from gateway.api.ws import uvicorn_ws_options
-from gateway.cli.check_config import NO_TOKENS, check_file, problems_error
+from gateway.cli.check_config import NO_TOKENS, check_report, problems_error
+from gateway.cli.connection_guard import uvicorn_connection_options
 from gateway.cli.logs import configure_logging
 from gateway.cli.notify import notify
 from gateway.mqtt.commands import DeviceCommands
@@ -40,6 +44,7 @@ from gateway.service.config import ConfigError, GatewayConfig
 from gateway.service.runtime.runtime import Runtime
 from gateway.service.runtime.simulated import SIM_LOOP, simulated_config
 from gateway.service.runtime.state_log import StateLog
+from gateway.service.store import StateStore, default_state_dir
 from gateway.sim.cli import (
     add_clock_option,
     build_loop,
@@ -235,10 +240,14 @@ def _configured(args: argparse.Namespace) -> GatewayConfig | None:
     """The ``--config`` file, once ``check-config`` finds no problem in it (None: no file)."""
     if args.config is None:
         return None
-    config, problems = check_file(args.config, no_auth=args.no_auth, ports=not args.simulate)
-    if problems:
-        raise problems_error(args.config, problems)
-    return config
+    report = check_report(args.config, no_auth=args.no_auth, ports=not args.simulate)
+    if report.problems:
+        raise problems_error(args.config, report.problems)
+    # A port not there yet (an adapter unplugged) is one loop down, not a gateway that cannot
+    # start: its scheduler opens it with back-off and the loop is up once the device appears.
+    for warning in report.warnings:
+        log.warning("%s: %s", args.config, warning)
+    return report.config
 
 
 async def serve(args: argparse.Namespace) -> int:
@@ -252,7 +261,41 @@ async def serve(args: argparse.Namespace) -> int:
     if not args.simulate:
         transports = open_lines(config)
     auth = _auth(args, config)
-    gateway = Runtime(config, transports=transports, time_scale=args.time_scale)
+    state_dir, scratch = _state_dir(config, simulated=args.simulate)
+    try:
+        store = await StateStore.open(state_dir)
+    except BaseException:
+        if scratch:
+            shutil.rmtree(state_dir, ignore_errors=True)
+        raise
+    try:
+        return await _serve(args, config, sims, transports, auth, store)
+    finally:
+        if scratch:
+            shutil.rmtree(state_dir, ignore_errors=True)
+
+
+def _state_dir(config: GatewayConfig, *, simulated: bool) -> tuple[Path, bool]:
+    """The state directory, and whether it is this process's own scratch directory: the
+    configuration's ``state_dir``; with ``--simulate`` and none, a new temporary directory
+    (a simulated loop starts from nothing each time); else ``default_state_dir()``."""
+    if config.state_dir is not None:
+        return config.state_dir, False
+    if simulated:
+        return Path(tempfile.mkdtemp(prefix="rc233-gateway-state-")), True
+    return default_state_dir(), False
+
+
+async def _serve(
+    args: argparse.Namespace,
+    config: GatewayConfig,
+    sims: list[SimLoop],
+    transports: dict[str, Transport],
+    auth: AuthConfig,
+    store: StateStore,
+) -> int:
+    """Run the API on ``transports`` with the opened state ``store`` until a signal."""
+    gateway = Runtime(config, transports=transports, time_scale=args.time_scale, store=store)
     StateLog(gateway).start()
     app = create_app(gateway, auth=auth)
     control: asyncio.Server | None = None
@@ -273,7 +316,9 @@ async def serve(args: argparse.Namespace) -> int:
             log_level="debug" if args.verbose else "info",
             log_config=None,  # uvicorn's lines go through the one handler (text or JSON)
             access_log=False,  # written by the app, cheaply (gateway.api.access_log)
+            server_header=False,  # no "Server: uvicorn": the software is nobody's business
             **uvicorn_ws_options(config.ws),
+            **uvicorn_connection_options(config.connections),
             timeout_graceful_shutdown=10,
         )
     )
@@ -281,7 +326,8 @@ async def serve(args: argparse.Namespace) -> int:
     print(
         f"rc233-gateway serve: dashboard http://{args.host}:{args.port}/ "
         f"API http://{args.host}:{args.port}/api/v1 loops {loops}"
-        + (" [simulated]" if sims else ""),
+        + (" [simulated]" if sims else "")
+        + f" state {store.directory}",
         flush=True,
     )
     edge_node = _edge_node(gateway, config, auth, app)

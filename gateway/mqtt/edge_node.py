@@ -16,7 +16,12 @@ in ``MQTT/Superseded``): the drop-oldest policy, without store-and-forward. Whil
 is away nothing is kept; the rebirth after the reconnection carries the state of that moment.
 
 The broker down or restarting: reconnect with exponential back-off (``reconnect_min`` ..
-``reconnect_max`` seconds, jittered), ``bdSeq`` + 1, rebirth.
+``reconnect_max`` seconds, jittered), ``bdSeq`` + 1, rebirth. ``bdSeq`` is kept in the state
+store before each connection, so it goes on across restarts of the process too.
+
+MQTT 5, for what it tells about the session: oversized payloads are dropped unread, a second
+node with the same id is detected and backed off from (gateway/mqtt/session_guard.py); with
+``primary_host`` the births wait for the host's STATE (gateway/mqtt/primary_host.py).
 """
 
 from __future__ import annotations
@@ -24,13 +29,15 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
-import random
-import ssl
 
 import aiomqtt
+from paho.mqtt.subscribeoptions import SubscribeOptions
 
+from gateway.mqtt.broker_client import broker_client, client_id
 from gateway.mqtt.commands import DeviceCommands
 from gateway.mqtt.metric_table import MetricTable, Values, axis_label, changed, device_id, millis
+from gateway.mqtt.primary_host import PrimaryHost
+from gateway.mqtt.session_guard import Backoff, DuplicateNode, PayloadBound, taken_over
 from gateway.mqtt.sparkplug import Message, Metric, Value, decode_commands, encode, topic
 from gateway.service.config import MqttSettings
 from gateway.service.events import EventKind, ServiceEvent
@@ -41,8 +48,14 @@ __all__ = ["EdgeNode"]
 
 log = logging.getLogger("gateway.mqtt")
 
+#: The state store's counter of the last session's ``bdSeq``.
+BD_SEQ_COUNTER = "sparkplug_bdseq"
 #: Real seconds the NDEATH of a shutdown may take before the connection is simply dropped.
 DEATH_TIMEOUT = 2.0
+
+
+class HostOffline(Exception):
+    """The primary host said it is offline: NDEATH, disconnect, wait for it again."""
 
 
 class EdgeNode:
@@ -57,9 +70,13 @@ class EdgeNode:
             gateway.topology, gateway.state, commands=self.commands is not None
         )
         self._by_body = {(c.loop, c.body): device_id(c) for c in gateway.topology.controllers()}
-        self.bd_seq = -1  # the first connection uses 0
+        # The next connection's bdSeq follows the last one of any process before (the store).
+        self.bd_seq = gateway.store.counters.get(BD_SEQ_COUNTER, -1)
         self.seq = 0
         self.superseded = 0
+        self.takeovers = 0
+        self.payloads = PayloadBound(settings.max_payload)
+        self.primary = PrimaryHost(settings.primary_host) if settings.primary_host else None
         self.connected = asyncio.Event()
         self._wake = asyncio.Event()
         self._dirty: set[str] = set()
@@ -126,26 +143,61 @@ class EdgeNode:
 
     async def run(self) -> None:
         """Connect, publish, reconnect with back-off; until cancelled (NDEATH sent then)."""
-        wait = self.settings.reconnect_min
+        backoff = Backoff(self.settings.reconnect_min, self.settings.reconnect_max)
         try:
             while True:
                 self.bd_seq = (self.bd_seq + 1) % 256
                 try:
+                    await self.gateway.store.set_counter(BD_SEQ_COUNTER, self.bd_seq)
+                except Exception as exc:  # the session goes on; a restart may repeat this one
+                    log.error("mqtt: bdSeq %d not stored: %s", self.bd_seq, exc)
+                try:
                     async with await self._client() as client:
-                        wait = self.settings.reconnect_min
+                        backoff.connected()
                         await self._session(client)
+                    wait = backoff.next_wait(takeover=False)  # the primary host went offline
+                except DuplicateNode as exc:
+                    wait = self._duplicate(str(exc), backoff)
                 except aiomqtt.MqttError as exc:
-                    log.warning(
-                        "mqtt: broker %s:%d: %s; again in %.1f s",
-                        self.settings.host, self.settings.port, exc, wait,
-                    )  # fmt: skip
+                    if taken_over(exc):
+                        wait = self._duplicate(
+                            "the broker gave our session to another client", backoff
+                        )
+                    elif backoff.session_lost():
+                        what = (
+                            f"the broker closed {backoff.short_losses} sessions in a row "
+                            "soon after they began, as when another client takes them over"
+                        )
+                        wait = self._duplicate(what, backoff)
+                    else:
+                        wait = backoff.next_wait(takeover=False)
+                        log.warning(
+                            "mqtt: broker %s:%d: %s; again in %.1f s",
+                            self.settings.host, self.settings.port, exc, wait,
+                        )  # fmt: skip
                 except Exception:  # never leave the plant without the node: log, try again
+                    wait = backoff.next_wait(takeover=False)
                     log.exception("mqtt: edge node failed; again in %.1f s", wait)
                 self.connected.clear()
-                await asyncio.sleep(wait * random.uniform(0.5, 1.0))
-                wait = min(wait * 2, self.settings.reconnect_max)
+                await asyncio.sleep(wait)
         finally:
             self.connected.clear()
+
+    def _duplicate(self, what: str, backoff: Backoff) -> float:
+        """Another node uses our id: say so loudly, count it, and wait longer each time."""
+        self.takeovers += 1
+        self._node_dirty = True
+        wait = backoff.next_wait(takeover=True)
+        log.error(
+            "mqtt: %s: edge node %s/%s (client id %s) is used by another node; a Sparkplug "
+            "id must be unique (takeover %d; again in %.1f s)",
+            what, self.settings.group, self.settings.edge_node, self._client_id(),
+            self.takeovers, wait,
+        )  # fmt: skip
+        return wait
+
+    def _client_id(self) -> str:
+        return client_id(self.settings)
 
     def close(self) -> None:
         """Stop listening to the cache (after ``run`` is cancelled)."""
@@ -153,22 +205,8 @@ class EdgeNode:
             unlisten()
 
     async def _client(self) -> aiomqtt.Client:
-        s = self.settings
-        tls: ssl.SSLContext | None = None
-        if s.tls:
-            tls = await asyncio.to_thread(_tls_context, s)
-        death = self._death_payload()
-        return aiomqtt.Client(
-            s.host,
-            s.port,
-            identifier=s.client_id or f"rc233-{s.group}-{s.edge_node}",
-            username=s.username,
-            password=s.password.get_secret_value() if s.password else None,
-            keepalive=s.keepalive,
-            tls_context=tls,
-            will=aiomqtt.Will(self._topic(Message.NDEATH), death, qos=1, retain=False),
-            clean_session=True,
-        )
+        death = self._topic(Message.NDEATH), self._death_payload()
+        return await broker_client(self.settings, self._client_id(), death)
 
     def _death_payload(self) -> bytes:
         spec = self.table.node["bdSeq"]
@@ -179,11 +217,16 @@ class EdgeNode:
         await client.subscribe(self._topic(Message.NCMD), qos=0)
         if self.commands is not None:
             await client.subscribe(self._topic(Message.DCMD) + "/+", qos=0)
+        # Our own NBIRTH never comes back (no-local): one that comes is another node's.
+        await client.subscribe(self._topic(Message.NBIRTH), options=SubscribeOptions(noLocal=True))
+        if self.primary is not None:
+            await client.subscribe(self.primary.topic, qos=1)
         log.info("mqtt: connected to %s:%d as edge node %s/%s (bdSeq %d)",
                  self.settings.host, self.settings.port, self.settings.group,
                  self.settings.edge_node, self.bd_seq)  # fmt: skip
         reader = asyncio.create_task(self._read(client))
         try:
+            await self._wait_for_primary_host(reader)
             await self._birth(client)
             self.connected.set()
             while True:
@@ -191,25 +234,65 @@ class EdgeNode:
                 self._wake.clear()
                 if reader.done():  # the connection ended under the reader
                     reader.result()
+                if self.primary is not None and not self.primary.online:
+                    raise HostOffline
                 await self._publish_changes(client)
-        except asyncio.CancelledError:
-            with contextlib.suppress(Exception):
-                payload = self._death_payload()
-                ndeath = client.publish(self._topic(Message.NDEATH), payload, qos=1)
-                await asyncio.wait_for(ndeath, DEATH_TIMEOUT)
+        except HostOffline:
+            log.warning("mqtt: primary host %s is offline: NDEATH, disconnect, wait for it",
+                        self.settings.primary_host)  # fmt: skip
+            await self._death(client)
+        except (asyncio.CancelledError, DuplicateNode):
+            await self._death(client)
             raise
         finally:
             reader.cancel()
             with contextlib.suppress(BaseException):
                 await reader
 
+    async def _death(self, client: aiomqtt.Client) -> None:
+        """Publish the NDEATH of this session (then the caller disconnects)."""
+        with contextlib.suppress(Exception):
+            payload = self._death_payload()
+            ndeath = client.publish(self._topic(Message.NDEATH), payload, qos=1)
+            await asyncio.wait_for(ndeath, DEATH_TIMEOUT)
+
+    async def _wait_for_primary_host(self, reader: asyncio.Task[None]) -> None:
+        """Return once the primary host's STATE says online (at once without one)."""
+        if self.primary is None or self.primary.online:
+            return
+        log.info("mqtt: waiting for primary host %s to be online", self.primary.host_id)
+        while not self.primary.online:
+            await self._wake.wait()
+            self._wake.clear()
+            if reader.done():
+                reader.result()
+                raise aiomqtt.MqttError("the connection ended while waiting for the host")
+
+    def _on_state(self, payload: bytes) -> None:
+        assert self.primary is not None
+        if self.primary.receive(payload):
+            log.info("mqtt: primary host %s %s", self.primary.host_id,
+                     "online" if self.primary.online else "offline")  # fmt: skip
+            self._wake.set()
+
     async def _read(self, client: aiomqtt.Client) -> None:
+        born = self._topic(Message.NBIRTH)
         try:
             async for message in client.messages:
                 payload = message.payload
                 if not isinstance(payload, bytes | bytearray):
                     continue
+                where = str(message.topic)
+                if not self.payloads.allows(where, len(payload)):
+                    self._node_dirty = True
+                    self._wake.set()
+                    continue
+                if where == born:
+                    raise DuplicateNode(f"an NBIRTH of another node on {where}")
                 try:
+                    if self.primary is not None and where == self.primary.topic:
+                        self._on_state(bytes(payload))
+                        continue
                     await self._command(str(message.topic), bytes(payload))
                 except ValueError as exc:
                     log.warning("mqtt: %s: %s", message.topic, exc)
@@ -246,7 +329,11 @@ class EdgeNode:
         return seq
 
     def _node_values(self) -> Values:
-        extra: dict[str, Value] = {"MQTT/Superseded": self.superseded}
+        extra: dict[str, Value] = {
+            "MQTT/Superseded": self.superseded,
+            "MQTT/Dropped Payloads": self.payloads.dropped,
+            "MQTT/Takeovers": self.takeovers,
+        }
         for loop in self.gateway.topology.loops():
             extra[f"Loops/{loop.name}/Line Utilisation"] = self._utilisation.get(loop.name)
             extra[f"Loops/{loop.name}/Busy Seconds"] = round(self.busy.get(loop.name, 0.0), 6)
@@ -307,11 +394,3 @@ class EdgeNode:
                 metrics = self.table.metrics(self.table.devices[dev], values, moved)
                 await self._send(client, self._topic(Message.DDATA, dev), metrics)
                 self._sent[dev] = values
-
-
-def _tls_context(settings: MqttSettings) -> ssl.SSLContext:
-    """The TLS context of the broker connection (files read here, in a worker thread)."""
-    context = ssl.create_default_context(cafile=str(settings.ca_file) if settings.ca_file else None)
-    if settings.cert_file and settings.key_file:
-        context.load_cert_chain(str(settings.cert_file), str(settings.key_file))
-    return context

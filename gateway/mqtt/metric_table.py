@@ -103,6 +103,8 @@ class MetricTable:
         self._add(node, None, "Node Control/Rebirth", DataType.BOOLEAN)
         self._add(node, None, "Properties/Version", DataType.STRING)
         self._add(node, None, "MQTT/Superseded", DataType.UINT64)
+        self._add(node, None, "MQTT/Dropped Payloads", DataType.UINT64)
+        self._add(node, None, "MQTT/Takeovers", DataType.UINT64)
         for loop in self.topology.loops():
             base = f"Loops/{loop.name}/"
             self._add(node, None, base + "Up", DataType.BOOLEAN)

@@ -3,8 +3,8 @@
 One file describes a cell: its loops (port URL, baud, time-outs, poll periods, SUM at
 connect), the controllers on each (body number, name) and their axes (name, user units, soft
 limits), the security section (API tokens stored as SHA-256 hashes, each with a role and a
-name; CORS origins), the audit log and the WebSocket limits. ``deploy/cell.example.toml`` is
-the annotated example.
+name; CORS origins), the audit log, the state directory and the WebSocket limits.
+``deploy/cell.example.toml`` is the annotated example.
 
 Every key is checked before anything starts: an unknown key, a bad value or a broken rule
 raises ``ConfigError``, whose message names the key (``loops[0].controllers[1].body``) and the
@@ -15,7 +15,6 @@ e.g. ``RC233_AUDIT_LOG``.
 from __future__ import annotations
 
 import dataclasses
-import tomllib
 from pathlib import Path
 from typing import Annotated, Any, Literal, Self
 
@@ -33,12 +32,14 @@ from gateway.bus.config import LoopConfig
 from gateway.bus.poll_plan import PollConfig
 from gateway.errors import GatewayError
 from gateway.protocol.framing import BAUD_RATES, BODY_NUMBERS
+from gateway.service.config_bounds import UnreadableConfig, listed, read_toml
 from gateway.service.roles import Role
 
 __all__ = [
     "NAME_PATTERN",
     "AxisSettings",
     "ConfigError",
+    "ConnectionSettings",
     "ControllerSettings",
     "GatewayConfig",
     "LocalInputSettings",
@@ -50,6 +51,7 @@ __all__ = [
     "TokenSettings",
     "WsSettings",
     "load_config",
+    "schema_problems",
 ]
 
 #: Names of loops, controllers and axes: no dots, so a name never reads as an id (`main.1.2`).
@@ -62,7 +64,9 @@ class ConfigError(GatewayError):
 
 
 class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    # allow_inf_nan: a NaN limit compares false with everything (a limit silently off), an
+    # infinite scale turns every target into 0 or inf; every float of the file is finite.
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
 
 class AxisSettings(_Strict):
@@ -182,6 +186,13 @@ class SecuritySettings(_Strict):
     open_metrics: bool = True
     #: ``/api/v1/docs`` and ``/api/v1/openapi.json`` without a token; False: any token
     open_docs: bool = True
+    #: names (or addresses) the ``Host`` header may give besides loopback ones (``localhost``,
+    #: ``127.0.0.1``, ``[::1]``): what clients type to reach the gateway (``gw.plant.example``).
+    #: Any other is refused (421), so a hostile page cannot reach the API through a name of
+    #: its own (DNS rebinding). ``"*"`` accepts any name (not advised).
+    allowed_hosts: list[
+        Annotated[str, Field(pattern=r"^(\*|[A-Za-z0-9_.-]{1,253}|\[[0-9A-Fa-f:.]{2,45}\])$")]
+    ] = Field(default_factory=list)
 
     @model_validator(mode="after")
     def _unique(self) -> Self:
@@ -199,6 +210,22 @@ class WsSettings(_Strict):
     replay: int = Field(10_000, ge=100, le=1_000_000, description="messages kept for replay")
     backlog: int = Field(1_000, ge=10, le=100_000, description="unsent messages per client")
     ping_interval: float = Field(20.0, gt=0, le=600)
+
+
+class ConnectionSettings(_Strict):
+    """Limits on the API's HTTP connections (gateway/cli/connection_guard.py): a client
+    that sends too much, too slowly or nothing at all is closed before the app sees it."""
+
+    #: request line and headers together, in bytes; more: ``431``
+    max_head_bytes: int = Field(16_384, ge=1_024, le=1_048_576)
+    #: seconds a new connection may stay silent before it is closed
+    idle_timeout: float = Field(10.0, gt=0, le=600)
+    #: seconds from a request head's first byte to its end; later: ``408``
+    head_timeout: float = Field(10.0, gt=0, le=600)
+    #: open connections in all (fewer if the descriptor limit leaves no reserve)
+    max_connections: int = Field(1_024, ge=16, le=100_000)
+    #: open connections from one client address; more: ``429``
+    max_per_client: int = Field(64, ge=1, le=100_000)
 
 
 class MqttSettings(_Strict):
@@ -227,6 +254,10 @@ class MqttSettings(_Strict):
     #: reconnect back-off: first and longest wait in seconds
     reconnect_min: float = Field(0.5, gt=0, le=60)
     reconnect_max: float = Field(30.0, gt=0, le=600)
+    #: bytes; a received payload over this is dropped before it is decoded (counted, logged)
+    max_payload: int = Field(65_536, ge=1_024, le=16_777_216)
+    #: the Sparkplug 3.0 Primary Host Application's id: births wait for its STATE online
+    primary_host: str | None = Field(None, pattern=r"^[^+/#\s]{1,64}$")
 
     @model_validator(mode="after")
     def _tls_files(self) -> Self:
@@ -240,12 +271,18 @@ class MqttSettings(_Strict):
 class GatewayConfig(BaseSettings):
     """The whole configuration (a TOML file, environment ``RC233_*`` over it)."""
 
-    model_config = SettingsConfigDict(extra="forbid", frozen=True, env_prefix="RC233_")
+    model_config = SettingsConfigDict(
+        extra="forbid", frozen=True, env_prefix="RC233_", allow_inf_nan=False
+    )
 
     loops: list[LoopSettings] = Field(min_length=1)
     security: SecuritySettings = SecuritySettings()
     audit_log: Path | None = None
+    #: The state directory (SQLite: operations, idempotency keys, Sparkplug bdSeq); None: the
+    #: default of ``gateway.service.store.location`` (docs/operations.md, "The state")
+    state_dir: Path | None = None
     ws: WsSettings = WsSettings()
+    connections: ConnectionSettings = ConnectionSettings()
     mqtt: MqttSettings | None = None
 
     @model_validator(mode="after")
@@ -275,12 +312,26 @@ def _where(loc: tuple[int | str, ...]) -> str:
     return out or "(file)"
 
 
-def describe(exc: ValidationError, source: str) -> ConfigError:
-    """One ``ConfigError`` naming every key at fault and its problem."""
-    lines = [f"{source}: {len(exc.errors())} problem(s)"]
-    for err in exc.errors():
+def schema_problems(exc: ValidationError) -> list[str]:
+    """Every key at fault in ``exc`` and its problem, one a line (``key: problem``)."""
+    problems = []
+    for err in exc.errors(include_url=False):
         where = _where(tuple(p for p in err["loc"] if not isinstance(p, str) or p))
-        lines.append(f"  {where}: {err['msg']}")
+        # the value only where it is the point: NaN and inf read as numbers in TOML
+        said = (
+            f" (NaN and ±inf are refused, got {err['input']})"
+            if err["type"] == "finite_number"
+            else ""
+        )
+        problems.append(f"{where}: {err['msg']}{said}")
+    return problems
+
+
+def describe(exc: ValidationError, source: str) -> ConfigError:
+    """One ``ConfigError`` naming the keys at fault and their problems (the first
+    ``MAX_LISTED``, then how many more)."""
+    problems = schema_problems(exc)
+    lines = [f"{source}: {len(problems)} problem(s)", *(f"  {p}" for p in listed(problems))]
     return ConfigError("\n".join(lines))
 
 
@@ -295,9 +346,9 @@ def parse_config(data: dict[str, object], source: str = "configuration") -> Gate
 def load_config(path: Path) -> GatewayConfig:
     """Read and validate a TOML file; ``ConfigError`` naming the key and the problem."""
     try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
+        data = read_toml(path)  # bounded: no file makes the parser run out of memory or time
     except OSError as exc:
         raise ConfigError(f"{path}: cannot read the file ({exc.strerror})") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"{path}: not valid TOML ({exc})") from None
+    except UnreadableConfig as exc:
+        raise ConfigError(f"{path}: {exc}") from None
     return parse_config(data, str(path))

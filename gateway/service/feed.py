@@ -44,6 +44,7 @@ from gateway.service.control import ControlStates
 from gateway.service.events import EventKind, ServiceEvent, ServiceEvents
 from gateway.service.topology import Topology
 from gateway.service.views import axis_view, controller_view, loop_view
+from gateway.transport.usb_latency import AdapterReport
 
 __all__ = ["TOPIC_RULE", "Feed", "FeedClient", "FeedMessage"]
 
@@ -171,12 +172,15 @@ class Feed:
         clock: Callable[[], float] = time.time,
         control: ControlStates | None = None,
         loop_baud: Callable[[str], int] | None = None,
+        loop_adapter: Callable[[str], AdapterReport | None] | None = None,
     ) -> None:
         self.topology, self.cache = topology, cache
         #: the controllers' control state, shown in controller and axis views
         self.control = control or ControlStates(topology)
         #: a loop's rate now (it changes with ``POST /loops/{loop}/baud``); None: configured
         self._loop_baud = loop_baud
+        #: what the last open found out about a loop's local adapter; None: nothing known
+        self._loop_adapter = loop_adapter
         self.settings = settings or WsSettings()
         self._clock = clock
         self.seq = 0
@@ -281,7 +285,9 @@ class Feed:
             port, baud = loop.settings.port, loop.settings.baud
             if self._loop_baud is not None:
                 baud = self._loop_baud(loop.name)
-            view = loop_view(loop.name, port, baud, list(loop.bodies), self.cache.loop(ident))
+            adapter = self._loop_adapter(loop.name) if self._loop_adapter is not None else None
+            state = self.cache.loop(ident)
+            view = loop_view(loop.name, port, baud, list(loop.bodies), state, adapter)
         return view.model_dump(mode="json")
 
     # ------------------------------------------------------------------ subscribing

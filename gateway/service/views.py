@@ -17,14 +17,17 @@ from gateway.bus.counters import CountersSnapshot
 from gateway.bus.state_types import AxisState, ControllerState, ErrorKind, Latch, LoopState
 from gateway.service.control import ControlView
 from gateway.service.topology import AxisRef, ControllerRef
+from gateway.transport.usb_latency import LATENCY_TIMER_LIMIT_MS, AdapterReport
 
 __all__ = [
+    "AdapterView",
     "AxisErrors",
     "AxisView",
     "ControllerView",
     "LatchView",
     "LoopView",
     "Sensors",
+    "adapter_view",
     "axis_units",
     "axis_view",
     "controller_view",
@@ -129,6 +132,28 @@ class ControllerView(BaseModel):
     )
 
 
+class AdapterView(BaseModel):
+    """How promptly the loop's local serial adapter passes received bytes on (a device path
+    only). A USB adapter that holds them (an FTDI chip's latency timer: 16 ms by default)
+    slows every exchange without any error."""
+
+    tty: str = Field(description="the kernel's name of the port (the path's links resolved)",
+                     examples=["ttyUSB0"])  # fmt: skip
+    low_latency: bool = Field(
+        description="the driver took the low-latency flag (false on a pseudo-terminal and "
+        "on drivers without it: no fault by itself)"
+    )
+    latency_timer_ms: int | None = Field(
+        description="the adapter's latency timer (/sys/bus/usb-serial/devices/<tty>/"
+        "latency_timer); null when the device has none",
+        examples=[1],
+    )
+    warning: str | None = Field(
+        description=f"set when the latency timer is above {LATENCY_TIMER_LIMIT_MS} ms: what "
+        "it costs and how to set it to 1"
+    )
+
+
 class LoopView(BaseModel):
     """One serial loop."""
 
@@ -142,6 +167,11 @@ class LoopView(BaseModel):
     counters: CountersSnapshot | None = Field(
         description="the scheduler's counters (integers, busy_time in seconds); null before "
         "the loop's first transaction"
+    )
+    adapter: AdapterView | None = Field(
+        default=None,
+        description="the local adapter, as found when the port was last opened; null for "
+        "socket:// and rfc2217:// lines and before the first open",
     )
 
 
@@ -233,7 +263,26 @@ def controller_view(
 _COUNTERS = TypeAdapter(CountersSnapshot)
 
 
-def loop_view(name: str, port: str, baud: int, bodies: list[str], state: LoopState) -> LoopView:
+def adapter_view(report: AdapterReport | None) -> AdapterView | None:
+    """What the last open of a loop's device path found out about its adapter."""
+    if report is None:
+        return None
+    return AdapterView(
+        tty=report.tty,
+        low_latency=report.low_latency,
+        latency_timer_ms=report.latency_timer_ms,
+        warning=report.warning,
+    )
+
+
+def loop_view(
+    name: str,
+    port: str,
+    baud: int,
+    bodies: list[str],
+    state: LoopState,
+    adapter: AdapterReport | None = None,
+) -> LoopView:
     """The view of one loop."""
     return LoopView(
         name=name,
@@ -244,4 +293,5 @@ def loop_view(name: str, port: str, baud: int, bodies: list[str], state: LoopSta
         queue_depth=state.queue_depth,
         controllers=[f"{name}.{b}" for b in bodies],
         counters=_COUNTERS.validate_python(dict(state.counters)) if state.counters else None,
+        adapter=adapter_view(adapter),
     )

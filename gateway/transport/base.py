@@ -17,6 +17,7 @@ from abc import ABC, abstractmethod
 from collections.abc import Callable
 
 from gateway.errors import GatewayError
+from gateway.transport.usb_latency import AdapterReport
 
 __all__ = ["BufferedTransport", "ReceiveBuffer", "Transport", "TransportClosed"]
 
@@ -36,6 +37,12 @@ class Transport(ABC):
     @abstractmethod
     async def open(self) -> None:
         """Open the line (off the event loop); ``TransportClosed`` or ``OSError`` if it fails."""
+
+    @property
+    def adapter(self) -> AdapterReport | None:
+        """What the last open learned about a local adapter (low-latency flag, latency
+        timer); ``None`` for lines that have none (network, in-process) or before an open."""
+        return None
 
     @abstractmethod
     async def close(self) -> None:

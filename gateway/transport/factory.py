@@ -9,15 +9,18 @@
 
 from __future__ import annotations
 
+import ipaddress
+import os
 import random
+import urllib.parse
 from dataclasses import dataclass, field
 from typing import Any
 
 from gateway.protocol.framing import BAUD_RATES
 from gateway.transport.base import Transport
-from gateway.transport.serial_line import SerialLine
+from gateway.transport.serial_line import LineKind, SerialLine
 
-__all__ = ["BAUD_RATES", "Backoff", "open_transport"]
+__all__ = ["BAUD_RATES", "Backoff", "line_identity", "open_transport"]
 
 
 def open_transport(url: str, baud: int, **options: Any) -> Transport:
@@ -31,6 +34,28 @@ def open_transport(url: str, baud: int, **options: Any) -> Transport:
             f"baud {baud!r}: the RC-233 talks at {', '.join(map(str, BAUD_RATES))} bps (§2, §10 ES)"
         )
     return SerialLine(url, baud, **options)
+
+
+def line_identity(url: str) -> str:
+    """What ``url`` reaches, so that two spellings of one line compare equal.
+
+    A device path with its symbolic links resolved (``/dev/serial/by-id/...`` and the
+    ``/dev/ttyUSB0`` it points to are one port). A network line as ``tcp://HOST:PORT``,
+    whichever the scheme (``socket://`` and ``rfc2217://`` on one device-server port are one
+    line), the host in lower case without a trailing dot and an IP address in its canonical
+    form; names are not resolved (no DNS lookup), so ``localhost`` and ``127.0.0.1`` differ.
+    ``ValueError`` as ``LineKind.of`` for a URL of none of the kinds.
+    """
+    if LineKind.of(url) is LineKind.DEVICE:
+        return os.path.realpath(url)
+    parts = urllib.parse.urlsplit(url)
+    host = (parts.hostname or "").rstrip(".")
+    try:
+        address = ipaddress.ip_address(host)
+    except ValueError:
+        return f"tcp://{host}:{parts.port}"
+    shown = f"[{address.compressed}]" if address.version == 6 else address.compressed
+    return f"tcp://{shown}:{parts.port}"
 
 
 @dataclass

@@ -5,7 +5,9 @@ source):
 
 * a device path (``/dev/ttyUSB0``): pyserial opens it (``open``, ``tcsetattr``, ``flock``) in a
   worker thread here; ``connection_for_serial`` then reads it through the event loop's reader
-  callbacks. The library closes it (drain, ``close``) in the executor. A vanished device
+  callbacks. In that thread the tty's low-latency flag is set and the adapter's latency timer
+  read (``usb_latency``: a USB adapter that holds received bytes slows every exchange). The
+  library closes it (drain, ``close``) in the executor. A vanished device
   (USB unplugged, pty closed) reads as an error or as readable-but-empty: the library closes
   the port and ``connection_lost`` carries the reason.
 * ``socket://HOST:PORT`` (a serial device server in TCP-server mode: ser2net, Moxa): a TCP
@@ -25,7 +27,9 @@ RXD are used).
 from __future__ import annotations
 
 import asyncio
+import errno
 import logging
+import os
 import queue
 import socket
 import threading
@@ -33,12 +37,14 @@ import urllib.parse
 from collections.abc import Callable
 from dataclasses import dataclass
 from enum import Enum
+from pathlib import Path
 from typing import Any, Protocol, TypeVar
 
 import serial  # type: ignore[import-untyped]
 import serial_asyncio_fast
 
 from gateway.transport.base import BufferedTransport, ReceiveBuffer, TransportClosed
+from gateway.transport.usb_latency import SYSFS_ROOT, AdapterNotes, AdapterReport, check_adapter
 
 __all__ = ["KeepAlive", "LineKind", "SerialLine"]
 
@@ -65,6 +71,9 @@ class LineKind(Enum):
     @classmethod
     def of(cls, url: str) -> LineKind:
         """The kind of ``url``; ``ValueError`` naming the field ``url`` if it is none of them."""
+        if any(ord(char) < 0x20 or char == "\x7f" for char in url):
+            # a NUL makes the OS refuse the path with a ValueError, a newline hides in the log
+            raise ValueError(f"url {url!r}: control characters are not allowed; {_ALLOWED}")
         if "://" not in url:
             if url.startswith("/") and url.strip() == url and len(url) > 1:
                 return cls.DEVICE
@@ -244,6 +253,7 @@ class SerialLine(BufferedTransport):
 
     ``open_timeout`` bounds an open (a TCP connect to an unreachable server, an RFC 2217
     negotiation); ``close_timeout`` bounds waiting for the port to drain when closing.
+    ``sysfs_root`` is where a device path's adapter settings are read (``usb_latency``).
     ``ValueError`` at once if ``url`` is none of the three kinds.
     """
 
@@ -255,13 +265,23 @@ class SerialLine(BufferedTransport):
         open_timeout: float = 10.0,
         close_timeout: float = 3.0,
         keepalive: KeepAlive | None = KeepAlive(),
+        sysfs_root: Path = SYSFS_ROOT,
     ) -> None:
         super().__init__(url, baud)
         self.kind = LineKind.of(url)
         self.open_timeout = open_timeout
         self.close_timeout = close_timeout
         self.keepalive = keepalive
+        self.sysfs_root = sysfs_root
         self._port: _Port | None = None
+        self._adapter: AdapterReport | None = None
+        self._notes = AdapterNotes(url, log)
+
+    @property
+    def adapter(self) -> AdapterReport | None:
+        """What the last open of a device path learned about its adapter (``None`` for
+        ``socket://`` and ``rfc2217://``, and before the first open)."""
+        return self._adapter
 
     def write(self, data: bytes) -> None:
         """Queue ``data`` for the line; ``TransportClosed`` when it is not open or was lost."""
@@ -283,7 +303,7 @@ class SerialLine(BufferedTransport):
                 f"{self.url}: cannot open: no connection within {self.open_timeout:g} s"
             ) from exc
         except OSError as exc:  # serial.SerialException is an OSError too
-            raise TransportClosed(f"{self.url}: cannot open: {exc}") from exc
+            raise TransportClosed(f"{self.url}: cannot open: {_why(exc)}") from exc
 
     async def _disconnect(self) -> None:
         port, self._port = self._port, None
@@ -320,9 +340,17 @@ class SerialLine(BufferedTransport):
 
     async def _open_device(self, protocol: LineProtocol) -> _Port:
         # exclusive: a second program on the same port would garble the loop (flock, POSIX)
-        port = await self._in_thread(
-            lambda: serial.serial_for_url(self.url, exclusive=True, **self._settings())
-        )
+        # the port alone comes back (a late one is closed by _in_thread); the report beside it
+        found: list[AdapterReport] = []
+
+        def open_and_check() -> Any:
+            port = serial.serial_for_url(self.url, exclusive=True, **self._settings())
+            found.append(check_adapter(port, self.url, self.sysfs_root))
+            return port
+
+        port = await self._in_thread(open_and_check)
+        self._adapter = found[0]
+        self._notes.tell(self._adapter)
         loop = asyncio.get_running_loop()
         transport, _ = await serial_asyncio_fast.connection_for_serial(loop, lambda: protocol, port)
         return _AioPort(transport, protocol, self.close_timeout)
@@ -345,6 +373,18 @@ class SerialLine(BufferedTransport):
         except BaseException:
             task.add_done_callback(_close_late)
             raise
+
+
+#: What an unplugged device (a USB adapter not there, its by-id link gone) fails an open with.
+_ABSENT = frozenset({errno.ENOENT, errno.ENODEV, errno.ENXIO})
+
+
+def _why(exc: OSError) -> str:
+    """Why an open failed, said plainly when the device is absent (pyserial's message names
+    the path and the error twice); its own words otherwise (a lock held, a refused rate)."""
+    if exc.errno in _ABSENT:
+        return f"the device is not present ({os.strerror(exc.errno)})"
+    return str(exc)
 
 
 def _close_late(task: asyncio.Future[Any]) -> None:

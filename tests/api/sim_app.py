@@ -33,6 +33,7 @@ from gateway.service.operations.registry import Operations
 from gateway.service.roles import Role
 from gateway.service.runtime.runtime import Runtime
 from gateway.service.runtime.simulated import SIM_LOOP, simulated_config
+from gateway.service.store import StateStore
 from gateway.sim.cli import build_loop
 from gateway.sim.clock import RecordKind, SimClock
 from gateway.sim.loop import SimLoop
@@ -40,7 +41,7 @@ from tests.state_waits import until_state
 
 #: Device seconds per real second in the API tests.
 SCALE = 50.0
-BASE = "http://gateway.test/api/v1"
+BASE = "http://localhost/api/v1"
 #: Real seconds a test waits for something the gateway does on its own (polls, a motion end).
 WAIT = 20.0
 #: The tokens of ``running_app(roles=True)``: name -> (token, role); one per role, named
@@ -52,6 +53,17 @@ TOKENS: dict[str, tuple[str, Role]] = {
     "alice": ("tok-alice", Role.OPERATOR),
     "bob": ("tok-bob", Role.OPERATOR),
 }
+
+
+async def declare_json(request: httpx.Request) -> None:
+    """Declare JSON on every request that acts and declares nothing, as the dashboard does
+    (the gateway refuses a POST, PUT, PATCH or DELETE declared otherwise, bodyless too)."""
+    if request.method in ("POST", "PUT", "PATCH", "DELETE"):
+        request.headers.setdefault("Content-Type", "application/json")
+
+
+#: ``event_hooks=`` of an httpx client that declares JSON like the dashboard
+DECLARE_JSON: dict[str, list[Any]] = {"request": [declare_json]}
 
 
 def auth(name: str | Role) -> dict[str, str]:
@@ -148,6 +160,7 @@ async def running_app(
     audit_log: Path | None = None,
     config: GatewayConfig | None = None,
     cache_last: bool = False,
+    store: StateStore | None = None,
 ) -> AsyncIterator[Api]:
     """The app on a simulated loop, started and identified; closed after the block.
 
@@ -161,7 +174,7 @@ async def running_app(
     # The in-process line of ``serve --simulate``: a port reopened at another rate (POST
     # /loops/{loop}/baud) sets the simulated line's, and controllers at another rate hear noise.
     line = sim_line(sim)
-    gateway = Runtime(config, transports={SIM_LOOP: line}, time_scale=scale)
+    gateway = Runtime(config, transports={SIM_LOOP: line}, time_scale=scale, store=store)
     if roles:
         book = TokenBook(TokenEntry(n, role, hash_token(t)) for n, (t, role) in TOKENS.items())
         app = create_app(gateway, auth=AuthConfig(book))
@@ -176,7 +189,7 @@ async def running_app(
         async with app.router.lifespan_context(app):
             transport = httpx.ASGITransport(app=app)
             async with httpx.AsyncClient(
-                transport=transport, base_url=BASE, timeout=WAIT
+                transport=transport, base_url=BASE, timeout=WAIT, event_hooks=DECLARE_JSON
             ) as client:
                 api = Api(app, gateway, sim, client, events)
                 await api.identified()

@@ -85,7 +85,7 @@ async def audited(tmp_path: Path) -> AsyncIterator[Audited]:
     path = tmp_path / "audit.jsonl"
     audit = AuditLog(path)
     transport = httpx.ASGITransport(app=build_app(audit), client=("203.0.113.9", 4711))
-    async with httpx.AsyncClient(transport=transport, base_url="http://gw") as client:
+    async with httpx.AsyncClient(transport=transport, base_url="http://localhost") as client:
         yield Audited(audit, client, path)
     await audit.close()
 
@@ -186,7 +186,7 @@ async def test_since_takes_a_time_and_refuses_anything_else(audited: Audited):
 async def test_without_a_path_the_log_is_in_memory_only(tmp_path: Path):
     audit = AuditLog(None)
     transport = httpx.ASGITransport(app=build_app(audit))
-    async with httpx.AsyncClient(transport=transport, base_url="http://gw") as client:
+    async with httpx.AsyncClient(transport=transport, base_url="http://localhost") as client:
         await client.post("/api/v1/axes/x/move", json={"position": 3}, headers=auth("otto"))
         page = (await client.get("/api/v1/audit", headers=auth("ada"))).json()
     await audit.close()
@@ -218,7 +218,7 @@ async def test_close_writes_every_entry_in_order(tmp_path: Path):
 async def test_a_disk_that_fails_loses_no_request(tmp_path: Path, caplog: pytest.LogCaptureFixture):
     audit = AuditLog(tmp_path / "missing-dir" / "audit.jsonl")
     transport = httpx.ASGITransport(app=build_app(audit))
-    async with httpx.AsyncClient(transport=transport, base_url="http://gw") as client:
+    async with httpx.AsyncClient(transport=transport, base_url="http://localhost") as client:
         r = await client.post("/api/v1/axes/x/move", json={"position": 3}, headers=auth("otto"))
         assert r.status_code == 202
         await audit.flush()
@@ -291,7 +291,7 @@ async def test_a_failing_audit_file_makes_the_gateway_not_ready(tmp_path: Path):
     async with running_app(("1",), audit_log=path) as api:
         r = await api.client.post("/axes/x/stop")
         assert r.status_code == 200, r.text
-        assert (await api.client.get("http://gateway.test/readyz")).status_code == 200
+        assert (await api.client.get("http://localhost/readyz")).status_code == 200
         audit: AuditLog = api.app.state.audit
         await audit.flush()
         path.unlink()
@@ -299,9 +299,9 @@ async def test_a_failing_audit_file_makes_the_gateway_not_ready(tmp_path: Path):
         r = await api.client.post("/axes/x/stop")
         assert r.status_code == 200, r.text
         await audit.flush()
-        ready = await api.client.get("http://gateway.test/readyz")
+        ready = await api.client.get("http://localhost/readyz")
         assert ready.status_code == 503
         assert "audit log" in ready.json()["detail"]
-        metrics = (await api.client.get("http://gateway.test/metrics")).text
+        metrics = (await api.client.get("http://localhost/metrics")).text
         assert "rc233_audit_write_errors_total 1" in metrics
         assert "rc233_audit_log_ok 0" in metrics

@@ -16,7 +16,7 @@ from gateway.service.runtime.simulated import SIM_LOOP, simulated_config
 from gateway.transport.pipe import PipeTransport
 from tests.api.sim_app import Api, auth, running_app
 
-ROOT = "http://gateway.test"
+ROOT = "http://localhost"
 
 
 def _never() -> Any:

@@ -11,6 +11,7 @@ from fastapi import FastAPI, Response
 
 from gateway.api.idempotency import install_idempotency
 from gateway.api.problems import install_problem_handlers
+from gateway.service.store import StateStore
 from tests.api.sim_app import auth, json_of, running_app
 
 
@@ -109,10 +110,14 @@ async def counting() -> AsyncIterator[tuple[httpx.AsyncClient, list[int], Clock]
         return {"calls": len(calls)}
 
     install_problem_handlers(app)
-    install_idempotency(app, capacity=2, ttl=60, clock=clock)
+    store = StateStore.memory()
+    app.state.idempotency_store = install_idempotency(
+        app, store, capacity=2, ttl=60, clock=clock
+    )
     transport = httpx.ASGITransport(app=app)
-    async with httpx.AsyncClient(transport=transport, base_url="http://t") as client:
+    async with httpx.AsyncClient(transport=transport, base_url="http://localhost") as client:
         yield client, calls, clock
+    await store.close()
 
 
 async def test_store_is_bounded_and_expires(
@@ -126,10 +131,12 @@ async def test_store_is_bounded_and_expires(
     assert (await post("a")).json() == {"calls": 1}
     assert (await post("a")).json() == {"calls": 1}
     await post("b")
-    await post("c")  # capacity 2: "a" is dropped
-    assert (await post("a")).json() == {"calls": 4}
-    clock.now = 61  # every key expired
-    assert (await post("c")).json() == {"calls": 5}
+    await post("c")  # capacity 2 in memory: "a" is dropped there, and kept in the state store
+    replay = await post("a")
+    assert replay.json() == {"calls": 1} and replay.headers["idempotent-replayed"] == "true"
+    clock.now = 61  # every key expired, in memory and in the state store
+    assert (await post("c")).json() == {"calls": 4}
+    assert (await post("a")).json() == {"calls": 5}
     # 503 and 4xx are not stored (nothing was done); 504 and 500 are
     assert (await post("d", 503)).status_code == 503
     assert (await post("d", 503)).json() == {"calls": 7}

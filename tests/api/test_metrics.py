@@ -238,7 +238,7 @@ def build_app(gateway: Any) -> FastAPI:
 async def test_http_requests_are_counted_by_route_template_method_and_status():
     gateway, _ = fake_gateway()
     transport = httpx.ASGITransport(app=build_app(gateway))
-    async with httpx.AsyncClient(transport=transport, base_url="http://gw") as client:
+    async with httpx.AsyncClient(transport=transport, base_url="http://localhost") as client:
         for ident in ("main.1.1", "main.1.2", "x"):
             assert (await client.get(f"/api/v1/axes/{ident}")).status_code == 200
         assert (await client.post("/api/v1/axes/x/fail")).status_code == 500
@@ -262,7 +262,7 @@ async def test_http_requests_are_counted_by_route_template_method_and_status():
 async def test_healthz_and_readyz_need_no_token_and_name_the_loops_down():
     gateway, _ = fake_gateway()
     transport = httpx.ASGITransport(app=build_app(gateway))
-    async with httpx.AsyncClient(transport=transport, base_url="http://gw") as client:
+    async with httpx.AsyncClient(transport=transport, base_url="http://localhost") as client:
         assert (await client.get("/healthz")).json() == {"status": "ok"}
         r = await client.get("/readyz")
         assert r.status_code == 503

@@ -14,7 +14,7 @@ from tests.api.test_metrics import parse_exposition, value
 
 
 async def _scrape(api):  # type: ignore[no-untyped-def]
-    response = await api.client.get("http://gateway.test/metrics")
+    response = await api.client.get("http://localhost/metrics")
     assert response.status_code == 200
     return parse_exposition(response.text)
 
@@ -70,7 +70,7 @@ async def test_ems_latches_on_the_axis_series_and_a_silent_controller_has_no_pos
 
 async def test_head_metrics_answers_without_a_body() -> None:
     async with running_app() as api:
-        response = await api.client.head("http://gateway.test/metrics")
+        response = await api.client.head("http://localhost/metrics")
         assert response.status_code == 200
         assert response.headers["content-type"].startswith("text/plain; version=0.0.4")
         assert response.content == b""

@@ -68,7 +68,7 @@ def build_app() -> FastAPI:
 @pytest.fixture
 async def client() -> Any:
     transport = httpx.ASGITransport(app=build_app())
-    async with httpx.AsyncClient(transport=transport, base_url="http://test") as c:
+    async with httpx.AsyncClient(transport=transport, base_url="http://localhost") as c:
         yield c
 
 

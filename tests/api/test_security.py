@@ -76,7 +76,7 @@ def build_app(auth: AuthConfig) -> FastAPI:
 @pytest.fixture
 async def client() -> AsyncIterator[httpx.AsyncClient]:
     transport = httpx.ASGITransport(app=build_app(AuthConfig(book())), client=("10.0.0.7", 999))
-    async with httpx.AsyncClient(transport=transport, base_url="http://test") as c:
+    async with httpx.AsyncClient(transport=transport, base_url="http://localhost") as c:
         yield c
 
 
@@ -152,7 +152,7 @@ async def test_admin_reaches_admin_routes_and_open_routes_need_nothing(
 async def test_no_auth_mode_makes_everyone_an_anonymous_admin():
     app = build_app(AuthConfig(book(), no_auth=True))
     transport = httpx.ASGITransport(app=app, client=("127.0.0.1", 5))
-    async with httpx.AsyncClient(transport=transport, base_url="http://test") as c:
+    async with httpx.AsyncClient(transport=transport, base_url="http://localhost") as c:
         r = await c.post("/axes/x/move")
         assert r.json() == {"name": "anonymous", "role": "admin", "client": "127.0.0.1"}
         assert (await c.post("/loops/l/raw", headers={"Authorization": "Bearer junk"})).is_success
@@ -167,7 +167,7 @@ async def test_an_app_without_install_security_refuses_everyone():
         return p.name
 
     transport = httpx.ASGITransport(app=app)
-    async with httpx.AsyncClient(transport=transport, base_url="http://test") as c:
+    async with httpx.AsyncClient(transport=transport, base_url="http://localhost") as c:
         assert (await c.get("/axes", headers=bearer("ada"))).status_code == 401
 
 

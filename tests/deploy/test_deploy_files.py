@@ -3,7 +3,7 @@
 * the systemd unit: `systemd-analyze verify`, and `systemd-analyze security --offline=true`
   under ``EXPOSURE_THRESHOLD``; every hardening directive the operations guide promises;
 * the udev rules: well formed (udev(7) keys and operators) and naming the devices the unit
-  allows;
+  allows; the FTDI rule setting the latency timer the gateway wants;
 * the Containerfile: hadolint, non-root, no privileged run documented.
 """
 
@@ -17,9 +17,14 @@ from pathlib import Path
 
 import pytest
 
+from gateway.cli.connection_guard import RESERVED_DESCRIPTORS
+from gateway.service.config import ConnectionSettings
+from gateway.transport.usb_latency import LATENCY_TIMER_LIMIT_MS
+
 DEPLOY = Path(__file__).parents[2] / "deploy"
 UNIT = DEPLOY / "systemd" / "rc233-gateway.service"
 RULES = DEPLOY / "udev" / "99-rc233-serial.rules"
+FTDI_RULES = DEPLOY / "udev" / "99-rc233-ftdi-latency.rules"
 CONTAINERFILE = DEPLOY / "container" / "Containerfile"
 GATEWAY = Path(sys.executable).parent / "rc233-gateway"
 
@@ -82,6 +87,12 @@ def test_the_unit_has_every_hardening_directive() -> None:
     assert "--log-format json" in directives["ExecStart"][0]
 
 
+def test_the_unit_gives_the_connections_and_their_reserve_their_descriptors() -> None:
+    limit = _directives(UNIT.read_text()).get("LimitNOFILE", ["(none: systemd's 1024)"])
+    wanted = ConnectionSettings().max_connections + RESERVED_DESCRIPTORS
+    assert limit[0].isdigit() and int(limit[0]) >= wanted, f"LimitNOFILE={limit[0]} < {wanted}"
+
+
 def test_systemd_analyze_verify_accepts_the_unit(tmp_path: Path) -> None:
     analyze = _tool("systemd-analyze", "systemd")
     done = subprocess.run(
@@ -142,6 +153,25 @@ def test_the_udev_rules_name_the_ports_the_unit_allows() -> None:
     assert symlinks == ["rc233-loop1", "rc233-loop2"]
     allowed = _directives(UNIT.read_text())["DeviceAllow"]
     assert all(f"/dev/{s} rw" in allowed or s != "rc233-loop1" for s in symlinks)
+
+
+def test_the_ftdi_rule_sets_the_latency_timer_to_one_ms_when_an_adapter_appears() -> None:
+    rules = [ln for ln in FTDI_RULES.read_text().splitlines() if ln.strip() and ln[0] != "#"]
+    assert len(rules) == 1, rules
+    pairs = [UDEV_PAIR.match(part) for part in rules[0].split(",")]
+    assert all(pairs), rules[0]
+    keys = {m.group(1): (m.group(2), m.group(3)) for m in pairs if m}
+    # udev(7): the timer is an attribute of the usb-serial device that ftdi_sio binds.
+    assert keys == {
+        "ACTION": ("==", "add"),
+        "SUBSYSTEM": ("==", "usb-serial"),
+        "DRIVER": ("==", "ftdi_sio"),
+        "ATTR{latency_timer}": ("=", "1"),
+    }
+    assert int(keys["ATTR{latency_timer}"][1]) <= LATENCY_TIMER_LIMIT_MS  # the gateway is quiet
+    # Both rule files are installed the same way: the deploy guide and the table name them.
+    for doc in (DEPLOY / "README.md", DEPLOY.parent / "docs" / "operations.md"):
+        assert FTDI_RULES.name in doc.read_text(), doc
 
 
 def test_the_containerfile_passes_hadolint_and_runs_unprivileged() -> None:

@@ -97,10 +97,8 @@ async def client(
             app = create_app(gateway, auth=AuthConfig(no_auth=True))
             async with app.router.lifespan_context(app):
                 transport = httpx.ASGITransport(app=app)
-                base = "http://gateway.test/api/v1"
-                async with httpx.AsyncClient(
-                    transport=transport, base_url=base, timeout=30
-                ) as c:
+                base = "http://localhost/api/v1"
+                async with httpx.AsyncClient(transport=transport, base_url=base, timeout=30) as c:
                     yield c
         finally:
             ser2net.send_signal(signal.SIGTERM)

@@ -170,6 +170,8 @@ class Central:
         async for message in client.messages:
             parts = str(message.topic).split("/")
             assert isinstance(message.payload, bytes)
+            if parts[1] == "STATE":  # a host application's JSON, not a Sparkplug payload
+                continue
             payload = decode(message.payload)
             kind, node = parts[2], parts[3]
             device = parts[4] if len(parts) > 4 else None
@@ -232,7 +234,8 @@ class Cell:
     """``rc233-gateway serve --simulate`` with an edge node, as a process."""
 
     def __init__(self, broker_port: int, node: str, *, group: str = "plant",
-                 time_scale: float = 5.0, extra: dict[str, Any] | None = None) -> None:  # fmt: skip
+                 time_scale: float = 5.0, extra: dict[str, Any] | None = None,
+                 env: dict[str, str] | None = None) -> None:  # fmt: skip
         self.node, self.group = node, group
         self.http = free_port()
         self.control_port = free_port()
@@ -240,11 +243,13 @@ class Cell:
                      "edge_node": node, "reconnect_min": 0.2, "reconnect_max": 1.0,
                      **(extra or {})}  # fmt: skip
         self.time_scale = time_scale
+        self.env = env or {}  # more environment (RC233_STATE_DIR: a state kept across starts)
         self.process: asyncio.subprocess.Process | None = None
 
     async def start(self, workdir: Path) -> None:
         """Start the process; its edge node connects by itself."""
-        env = {**os.environ, "RC233_MQTT": json.dumps(self.mqtt), "XDG_DATA_HOME": str(workdir)}
+        env = {**os.environ, "RC233_MQTT": json.dumps(self.mqtt), "XDG_DATA_HOME": str(workdir),
+               **self.env}  # fmt: skip
         self.process = await asyncio.create_subprocess_exec(
             str(GATEWAY), "serve", "--simulate", "--no-auth", "--port", str(self.http),
             "--time-scale", str(self.time_scale), "--eeprom-dir", str(workdir),

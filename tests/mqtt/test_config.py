@@ -41,6 +41,8 @@ def test_the_example_section_uncommented_is_valid() -> None:
         ({"ca_file": "/ca.pem"}, "mqtt"),
         ({"tls": True, "cert_file": "/c.pem"}, "mqtt"),
         ({"qos": 1}, "mqtt.qos"),
+        ({"max_payload": 10}, "mqtt.max_payload"),
+        ({"primary_host": "scada/1"}, "mqtt.primary_host"),
     ],
 )
 def test_bad_values_are_named(change: dict[str, object], key: str) -> None:

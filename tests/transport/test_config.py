@@ -50,6 +50,8 @@ def test_the_three_kinds_of_line(url: str, kind: LineKind) -> None:
         ("rfc2217://host:2217/extra", "expected rfc2217://HOST:PORT"),
         ("socket://host:4001?logging=debug", "socket:// takes none"),
         ("rfc2217://host:2217?speed=fast", "unknown option(s) ['speed']"),
+        ("/dev/ttyS0\x00", "control characters are not allowed"),  # the OS would raise
+        ("socket://host:4001\n", "control characters are not allowed"),
     ],
 )
 def test_a_bad_url_is_refused_naming_the_field(url: str, says: str) -> None:

@@ -146,7 +146,8 @@ class ControllerService:
         settings = ref.settings
         # The rate the port uses now: POST /loops/{loop}/baud changes it at run time.
         baud = scheduler.timing.baud
-        return loop_view(ref.name, settings.port, baud, list(ref.bodies), state)
+        adapter = scheduler.transport.adapter
+        return loop_view(ref.name, settings.port, baud, list(ref.bodies), state, adapter)
 
     # ------------------------------------------------------------------ commands
 

@@ -5,6 +5,13 @@ An operation goes ``queued`` (created) -> ``sent`` (the controller answered '>')
 published as a ``ServiceEvent`` of kind ``operation`` on topic ``axis:<id>``.
 
 How the end of a motion is seen: ``motion_watch``.
+
+Each operation is written to the state store (``gateway.store``) before its first frame goes
+out, together with the ``Idempotency-Key`` of the request that started it
+(``store.request_key``); each change after that is queued to the store. ``restore()`` reads
+them back at start: the newest ``retention`` stay readable, and one that had not ended when
+the process stopped is judged by reading its axis back (``durable``); a new motion on its
+controller is refused (409) until then.
 """
 
 from __future__ import annotations
@@ -19,9 +26,10 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 from gateway.bus.requests import LoopDown, Outcome, ReplyKind, TransactionResult
-from gateway.errors import ConflictError, DeviceError, NotFoundError
+from gateway.errors import ConflictError, DeviceError, NotFoundError, StateUnavailable
 from gateway.protocol.models import Command
 from gateway.service.events import EventKind, ServiceEvent
+from gateway.service.operations.durable import from_record, read_back_after_restart, to_record
 from gateway.service.operations.motion_watch import MotionWatch
 from gateway.service.operations.types import (
     FINAL,
@@ -32,6 +40,14 @@ from gateway.service.operations.types import (
     frames_of,
 )
 from gateway.service.runtime.runtime import Runtime
+from gateway.service.store.records import (
+    OPERATION_COUNTER,
+    insert_operation,
+    load_operations,
+    purge,
+    request_key,
+    save_operation,
+)
 from gateway.service.topology import AxisRef
 
 __all__ = ["Operation", "OperationError", "OperationState", "OperationView", "Operations"]
@@ -48,13 +64,52 @@ class Operations:
         self.retention = retention
         self._ops: OrderedDict[str, Operation] = OrderedDict()
         self._active: dict[tuple[str, str], Operation] = {}
-        self._ids = itertools.count(1)
+        self._ids = itertools.count(gateway.store.counters.get(OPERATION_COUNTER, 0) + 1)
         self._resolved: list[Callable[[Operation], object]] = []
         self._watch = MotionWatch(gateway, self)
+        #: per controller, the operation left unended by the last process, being read back
+        self._restored: dict[tuple[str, str], Operation] = {}
+        self._tasks: set[asyncio.Task[None]] = set()
 
     def close(self) -> None:
         """Stop listening (the gateway is closing)."""
         self._watch.close()
+        for task in self._tasks:
+            task.cancel()
+
+    async def restore(self) -> None:
+        """Read the stored operations back (before the loops start): the newest ``retention``
+        and every one not ended, whose axis is then read back (once its loop is up)."""
+        store = self.gateway.store
+        await store.run(lambda c: purge(c, time.time()))
+        records = await store.run(lambda c: load_operations(c, self.retention))
+        for record in records:
+            op = from_record(record, self.gateway.topology)
+            if op is None or op.id in self._ops:
+                continue
+            self._store(op)
+            if not op.final:
+                self._restored[op.axis.loop, op.axis.body] = op
+                task = asyncio.ensure_future(self._judge_restored(op))
+                self._tasks.add(task)
+                task.add_done_callback(self._tasks.discard)
+        self._ids = itertools.count(store.counters.get(OPERATION_COUNTER, 0) + 1)
+
+    async def _judge_restored(self, op: Operation) -> None:
+        state, error, position = await read_back_after_restart(self.gateway, op)
+        self._restored.pop((op.axis.loop, op.axis.body), None)
+        op.position = position if position is not None else op.position
+        # Not ``end``: the read-back that an ``unknown`` end starts has just been done here.
+        op.error = error
+        op.ended = time.time()
+        self.advance(op, state)
+        op.finished.set()
+        log.info("operation %s left by the last process: %s", op.id, state.value)
+        for callback in list(self._resolved):
+            try:
+                callback(op)
+            except Exception:  # one bad listener must not stop the others
+                log.exception("operation %s: resolution listener failed", op.id)
 
     # ------------------------------------------------------------------ reading
 
@@ -122,6 +177,13 @@ class Operations:
                 "in progress (§2: its two motors never move together)",
                 field="axis",
             )
+        restored = self._restored.get(key)
+        if restored is not None:
+            raise ConflictError(
+                f"controller {axis.controller_id}: operation {restored.id}, in progress when the "
+                "gateway stopped, is being read back; a motion now would make it unknowable",
+                field="axis",
+            )
         unsure = self._watch.reading_back(*key)
         if unsure is not None:
             raise ConflictError(
@@ -129,8 +191,9 @@ class Operations:
                 "being read back; a motion now would make it unknowable",
                 field="axis",
             )
+        number = next(self._ids)
         op = Operation(
-            id=f"op-{next(self._ids)}-{int(time.time() * 1000) % 100_000_000:08d}",
+            id=f"op-{number}-{int(time.time() * 1000) % 100_000_000:08d}",
             axis=axis,
             kind=kind,
             request=dict(request),
@@ -141,8 +204,27 @@ class Operations:
             prefix=prefix,
             step=step,
         )
-        self._store(op)
         self._active[key] = op
+        record, started_by = to_record(op), request_key.get()
+        write = asyncio.ensure_future(
+            self.gateway.store.run(lambda c: insert_operation(c, number, record, started_by))
+        )
+        try:
+            # On disk before the first frame: after a crash, the key finds this operation.
+            await asyncio.shield(write)
+        except asyncio.CancelledError:
+            # The caller went away first: nothing is sent. The end is queued after the write.
+            self._store(op)
+            detail = "the request went away before the operation was recorded; nothing was sent"
+            self.end(op, OperationState.FAILED, OperationError.of("refused", "Not sent", detail))
+            raise
+        except Exception as exc:
+            del self._active[key]
+            raise StateUnavailable(
+                f"operation {op.id} could not be recorded in the state store ({exc}); "
+                "nothing was sent"
+            ) from exc
+        self._store(op)
         self._publish(op)
         scheduler = self.gateway.scheduler(axis.loop)
         task = asyncio.ensure_future(scheduler.submit(axis.body, commands, motor=motor))
@@ -185,6 +267,8 @@ class Operations:
                 op.sent = time.time()
             if op.state is OperationState.QUEUED:
                 self.advance(op, OperationState.SENT)
+            else:
+                self._save(op)  # the frames and the pre-read
             return
         first = next(r for r in result.results if r.outcome is not Outcome.DONE)
         detail = f"{first.command.wire()}: {first.kind.value}" + (
@@ -246,6 +330,7 @@ class Operations:
         """``op`` is now in ``state`` (sent, moving), published to every watcher."""
         op.state = state
         op.updated = time.time()
+        self._save(op)
         self._publish(op)
 
     def end(self, op: Operation, state: OperationState, error: OperationError | None) -> None:
@@ -286,6 +371,11 @@ class Operations:
     def on_resolved(self, callback: Callable[[Operation], object]) -> None:
         """Call ``callback(op)`` whenever an ``unknown`` operation is resolved (the audit)."""
         self._resolved.append(callback)
+
+    def _save(self, op: Operation) -> None:
+        """Queue ``op`` as it is now for the state store (the run's own write was awaited)."""
+        record = to_record(op)
+        self.gateway.store.post(lambda c: save_operation(c, record))
 
     def _publish(self, op: Operation) -> None:
         data = op.view().model_dump(mode="json")

@@ -49,7 +49,7 @@ class OperationError(BaseModel):
 
     kind: str = Field(
         description="limit_error, emergency_stop, command_error, stopped, not_reached, device, "
-        "loop_down, offline, refused"
+        "loop_down, offline, refused, restart (judged after the gateway restarted)"
     )
     title: str
     detail: str

@@ -3,8 +3,9 @@
 ``Runtime(config, transports=...)`` builds nothing that touches a port; ``await start()``
 opens every loop (one attempt each; a loop that cannot open now keeps trying in the
 background, and requests to it fail with ``LoopDown`` meanwhile) and starts polling;
-``await close()`` stops accepting, lets the transaction in flight on each loop finish and
-closes the ports.
+``await close()`` stops accepting, lets the transaction in flight on each loop finish,
+closes the ports and then the state store (``store``: the state directory's database, opened
+by the owner of the process; in memory when none is given).
 
 The transports come from whoever owns the process, one per loop (``transports``): the command
 line opens the configured ports (``gateway.cli.serve.open_lines``) or puts the in-process
@@ -32,6 +33,7 @@ from gateway.service.config import GatewayConfig, LoopSettings
 from gateway.service.control import ControlStates
 from gateway.service.events import EventKind, ServiceEvent, ServiceEvents
 from gateway.service.runtime.key_switch import KeySwitchReader
+from gateway.service.store.database import StateStore
 from gateway.service.topology import LoopRef, Topology
 from gateway.transport.base import Transport
 
@@ -72,8 +74,12 @@ class Runtime:
         *,
         transports: Mapping[str, Transport],
         time_scale: float = 1.0,
+        store: StateStore | None = None,
     ) -> None:
         self.config = config
+        #: what must outlive the process (operations, idempotency keys, counters); in memory
+        #: unless the owner of the process opened the state directory's
+        self.store = store if store is not None else StateStore.memory()
         self.topology = Topology(config)
         self.state = StateCache()
         self.events = ServiceEvents()
@@ -117,6 +123,7 @@ class Runtime:
         await self.key_switches.stop()
         await asyncio.gather(*(p.stop() for p in self.pollers.values()))
         await asyncio.gather(*(s.close(drain=drain) for s in self.schedulers.values()))
+        await self.store.close()  # last: the ends of the operations drained above are written
 
     # ------------------------------------------------------------------ reading
 

@@ -33,12 +33,14 @@ function describe(status, problem) {
   return `${where}${problem.detail || problem.title || `HTTP ${status}`}`;
 }
 
-// One request: JSON in, JSON out. `body` undefined sends no body.
+// One request: JSON in, JSON out. `body` undefined sends no body. Every request that acts is
+// declared JSON, bodyless too: the gateway refuses one declared otherwise (415), since a page
+// of another site can send those without asking.
 export async function call(method, path, body, { signal } = {}) {
   const headers = { Accept: "application/json, application/problem+json" };
   const tok = token();
   if (tok) headers.Authorization = `Bearer ${tok}`;
-  if (body !== undefined) headers["Content-Type"] = "application/json";
+  if (body !== undefined || method !== "GET") headers["Content-Type"] = "application/json";
   let response;
   try {
     response = await fetch(API + path, {

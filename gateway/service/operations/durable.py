@@ -1,0 +1,178 @@
+"""Operations on disk: the record of one, and the verdict on one the gateway lost to a crash.
+
+``to_record`` / ``from_record`` turn an ``Operation`` into the JSON the state store keeps and
+back. An operation that had not ended when the process died (queued, sent or moving) is
+judged after the restart by ``read_back_after_restart``: the axis is read (status, then its
+motor's position) once its loop is up and its motor stands still, and the position is put
+against the operation's end and its start:
+
+* at the end (the target, or the pre-read plus the step) -> ``done``;
+* where it started (the pre-read) -> ``failed``, outcome ``not_done``;
+* a limit error or emergency stop in the status -> ``failed`` with that error;
+* anything else, or nothing to compare with (a jog; a relative move whose pre-read was not
+  recorded), or no answer within ``RESTART_READ_BACK`` host seconds -> ``unknown`` with why.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+from typing import Any
+
+from gateway.protocol import commands as cmd
+from gateway.protocol.reply_values import StatusFlags
+from gateway.service.operations.types import Operation, OperationError, OperationState
+from gateway.service.runtime.runtime import Runtime
+from gateway.service.topology import Topology
+
+__all__ = ["RESTART_READ_BACK", "Verdict", "from_record", "read_back_after_restart", "to_record"]
+
+log = logging.getLogger("gateway.service")
+
+#: Host seconds the read-back after a restart keeps trying (loop down, axis still moving).
+RESTART_READ_BACK = 120.0
+
+Verdict = tuple[OperationState, OperationError | None, int | None]
+
+
+def to_record(op: Operation) -> dict[str, Any]:
+    """What the state store keeps of ``op`` (JSON-able)."""
+    return {
+        "id": op.id,
+        "axis": op.axis.id,
+        "kind": op.kind,
+        "request": op.request,
+        "motor": op.motor,
+        "target": op.target,
+        "holder": op.holder,
+        "prefix": op.prefix,
+        "state": op.state.value,
+        "position": op.position,
+        "error": None if op.error is None else op.error.model_dump(mode="json"),
+        "frames": list(op.frames),
+        "created": op.created,
+        "sent": op.sent,
+        "ended": op.ended,
+        "updated": op.updated,
+        "step": op.step,
+        "position_before": op.position_before,
+        "stop_requested": op.stop_requested,
+    }
+
+
+def from_record(record: dict[str, Any], topology: Topology) -> Operation | None:
+    """The operation of ``record``; None when its axis is no longer configured."""
+    try:
+        axis = topology.axis(record["axis"])
+    except Exception:
+        log.warning(
+            "operation %s: axis %s is not configured any more; its record is not loaded",
+            record.get("id"), record.get("axis"),
+        )  # fmt: skip
+        return None
+    error = record.get("error")
+    op = Operation(
+        id=record["id"],
+        axis=axis,
+        kind=record["kind"],
+        request=dict(record["request"]),
+        motor=record["motor"],
+        target=record["target"],
+        holder=record["holder"],
+        commands=(),  # its transaction ended with the process that sent it
+        prefix=record["prefix"],
+        state=OperationState(record["state"]),
+        position=record["position"],
+        error=None if error is None else OperationError.model_validate(error),
+        frames=list(record["frames"]),
+        created=record["created"],
+        sent=record["sent"],
+        ended=record["ended"],
+        updated=record["updated"],
+        step=record["step"],
+        position_before=record["position_before"],
+        stop_requested=record["stop_requested"],
+    )
+    if op.final:
+        op.finished.set()
+    return op
+
+
+async def read_back_after_restart(gateway: Runtime, op: Operation) -> Verdict:
+    """The verdict on ``op``, which had not ended when the gateway stopped (see the module)."""
+    loop = asyncio.get_running_loop()
+    give_up = loop.time() + RESTART_READ_BACK
+    pause = 0.1
+    last = "the loop did not come up"
+    while True:
+        try:
+            result = await gateway.scheduler(op.axis.loop).submit(
+                op.axis.body, [cmd.status(), cmd.position(op.motor)]
+            )
+            flags, position = (r.value for r in result.results)
+            if isinstance(flags, StatusFlags) and _pulses(position):
+                assert isinstance(position, int)
+                if not flags.moving or op.expected_end is None:
+                    return _judge(op, flags, position)
+                last = f"the motor was still turning at {position} pulses"
+            else:
+                last = f"no usable answer ({result.outcome.value})"
+        except Exception as exc:  # the loop is down, the controller silent: try again
+            last = str(exc) or type(exc).__name__
+        if loop.time() >= give_up:
+            detail = (
+                f"the gateway restarted while the {op.kind} was {op.state.value}, and its axis "
+                f"could not be read back within {RESTART_READ_BACK:.0f} s: {last}"
+            )
+            return OperationState.UNKNOWN, _error("Outcome unknown", detail, "unknown"), None
+        await asyncio.sleep(pause)  # a back-off between attempts, not a synchronisation
+        pause = min(pause * 2, 2.0)
+
+
+def _pulses(value: object) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
+def _judge(op: Operation, flags: StatusFlags, position: int) -> Verdict:
+    expected, before = op.expected_end, op.position_before
+    seen = (
+        f"the gateway restarted while the {op.kind} was {op.state.value}; read back then: "
+        f"{position} pulses"
+    )
+    if expected is None:
+        why = (
+            "a jog has no end to compare it with"
+            if op.kind == "jog"
+            else "the position before it was not recorded"
+        )
+        return (
+            OperationState.UNKNOWN,
+            _error("Outcome unknown", f"{seen}; {why}", "unknown"),
+            position,
+        )
+    if position == expected:
+        return OperationState.DONE, None, position
+    if before is not None and position == before:
+        detail = f"{seen}, where it started: not carried out"
+        return OperationState.FAILED, _error("Not done", detail, "not_done"), position
+    if flags.limit_error:
+        detail = f'{seen}; a limit sensor or a step-out error stopped it (§10 "" bit 1)'
+        return (
+            OperationState.FAILED,
+            OperationError.of("limit_error", "Limit error", detail),
+            position,
+        )
+    if flags.emergency_stop:
+        detail = f'{seen}; the EMS input stopped it (§10 "" bit 2)'
+        return (
+            OperationState.FAILED,
+            OperationError.of("emergency_stop", "Emergency stop", detail),
+            position,
+        )
+    start = "not recorded" if before is None else str(before)
+    detail = f"{seen}: neither its end {expected} nor its start ({start})"
+    return OperationState.UNKNOWN, _error("Outcome unknown", detail, "unknown"), position
+
+
+def _error(title: str, detail: str, outcome: str) -> OperationError:
+    return OperationError.of("restart", title, detail, outcome)
