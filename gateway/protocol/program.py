@@ -187,12 +187,16 @@ class Program:
             count = jump_count(operand)
             step = statement.step
             kind = operand[0]
+            # How the target was counted, said in the refusal when it lands outside.
             if kind == "+":  # the statement after the jump is 0: +1 skips one (§12 /J +1)
                 target = step + 1 + count
+                counted = f"{count} on from step {step + 1}, the statement after it"
             elif kind == "-":  # same origin backwards: -1 is the jump itself, -2 the one before
                 target = step + 1 - count
+                counted = f"{count} back from step {step + 1}, the statement after it"
             elif kind == "A":  # absolute: the first statement is 1 (§12 /J A1)
                 target = count
+                counted = f"step {count} counted from the first statement"
             else:  # G<label>n: the label statement is 0, G<label>1 the one after it
                 label = operand[1]
                 if label not in labels:
@@ -203,10 +207,11 @@ class Program:
                         rule=ProgramRule.MISSING_LABEL,
                     )
                 target = labels[label] + count
+                counted = f"{count} on from label {label!r} at step {labels[label]}"
             if not 1 <= target <= len(self.statements):
                 raise ProgramError(
-                    f"{statement.text()!r} lands on step {target}, outside steps "
-                    f"1-{len(self.statements)}",
+                    f"{statement.text()!r} lands on step {target} ({counted}), but the "
+                    f"program has steps 1-{len(self.statements)} only",
                     step=step,
                     field="jump",
                     rule=ProgramRule.OUTSIDE,

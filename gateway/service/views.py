@@ -152,6 +152,12 @@ class ControllerView(BaseModel):
     moving: bool | None = Field(description="null: not read yet")
     selected_motor: int | None
     program: str | None = Field(description="GSS: 1 running, 0 ended, P paused, E error")
+    signed_positions: bool | None = Field(
+        default=None,
+        description="position management as last read or set (§10 EP): true signed (EP1), "
+        "false unsigned (EP0: no position below 0); null not known yet. Mode 1 always "
+        "counts signed whatever EP says",
+    )
     communication_error: bool
     latched: list[LatchView]
     axes: list[str]
@@ -283,6 +289,7 @@ def controller_view(
         moving=state.moving,
         selected_motor=state.selected_motor,
         program=state.program.value if state.program else None,
+        signed_positions=state.signed_positions,
         communication_error=ErrorKind.COMMUNICATION in state.latched,
         latched=[_latch(latch) for latch in state.latched.values()],
         axes=[a.id for a in ref.axes],

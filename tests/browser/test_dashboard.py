@@ -251,6 +251,8 @@ def test_the_line_trace_shows_the_frames_for_admins(gateway: Gateway, session: S
     expect(trace.locator(".tl.rx").first).to_contain_text(re.compile(r"\d\d:\d\d:\d\d\.\d{3}"))
     page.get_by_label("hex").check()
     expect(trace.locator(".tl.tx").last).to_contain_text(re.compile(r"24 3[0-9]"))  # '$' '1'..
+    page.get_by_label("hex").uncheck()
+    expect(page.get_by_label("hex")).not_to_be_checked()
     page.get_by_label("trace on").uncheck()
 
 

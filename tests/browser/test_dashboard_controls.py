@@ -193,7 +193,7 @@ def test_a_position_table_entry_written_in_settings(gateway: Gateway, session: S
     page = session.page
     page.goto(gateway.url + "/#/controller/sim.1")
     page.get_by_role("button", name="Read 10 entries").click()
-    entry = page.get_by_label("position 3", exact=True)
+    entry = page.get_by_label("position 3 in pulses", exact=True)
     expect(entry).to_be_visible()
     mark = gateway.line.mark()
     entry.fill("1234")
@@ -202,7 +202,7 @@ def test_a_position_table_entry_written_in_settings(gateway: Gateway, session: S
     gateway.line.wait_heard(mark, lambda h: "A0031234" in h)
     expect(page.get_by_text("Position 3 written")).to_be_visible()
     page.get_by_role("button", name="Read 10 entries").click()
-    expect(page.get_by_label("position 3", exact=True)).to_have_value("1234")
+    expect(page.get_by_label("position 3 in pulses", exact=True)).to_have_value("1234")
 
 
 def test_switching_an_output_sends_d_bit_value_b(gateway: Gateway, session: Session) -> None:
@@ -210,7 +210,7 @@ def test_switching_an_output_sends_d_bit_value_b(gateway: Gateway, session: Sess
     page = session.page
     page.goto(gateway.url + "/#/controller/sim.3")
     outputs = page.locator(".bits", has_text="outputs")
-    bit = outputs.get_by_role("button", name="3", exact=True)
+    bit = outputs.get_by_role("button", name="output 3", exact=True)
     expect(bit).to_have_attribute("aria-pressed", "false")
     mark = gateway.line.mark()
     bit.click()

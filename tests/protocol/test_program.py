@@ -478,3 +478,34 @@ def test_upload_chunks_cover_the_text_in_pieces_without_cr(
         # Whole statements per piece, and no piece could have taken the next statement.
         assert all(c.startswith("/") for c in chunks)
         assert all(len(a) + len(b.split("/")[1]) + 1 > max_chunk for a, b in pairwise(chunks))
+
+
+@pytest.mark.parametrize(
+    ("text", "detail"),
+    [
+        (
+            "/D00/J+5/END",
+            "step 2: '/J+5' lands on step 8 (5 on from step 3, the statement after it), "
+            "but the program has steps 1-3 only",
+        ),
+        (
+            "/J-2/END",
+            "step 1: '/J-2' lands on step 0 (2 back from step 2, the statement after it), "
+            "but the program has steps 1-2 only",
+        ),
+        (
+            "/JA3/END",
+            "step 1: '/JA3' lands on step 3 (step 3 counted from the first statement), "
+            "but the program has steps 1-2 only",
+        ),
+        (
+            "/0/G1/JG13/END",
+            "step 3: '/JG13' lands on step 5 (3 on from label '1' at step 2), "
+            "but the program has steps 1-4 only",
+        ),
+    ],
+)
+def test_a_jump_outside_names_the_statement_the_target_and_how_it_was_counted(
+    text: str, detail: str
+) -> None:
+    assert str(refusal(text)) == detail

@@ -9,7 +9,7 @@ import { installHoldGuards, stopAxis, stopEverything } from "./actions.js";
 import { ApiError, get, setToken, token } from "./api.js";
 import { AxisPage } from "./axis.js";
 import { ControllerPage } from "./controller.js";
-import { connect, disconnect, onClose, pollLoops, resetRates } from "./feed.js";
+import { connect, disconnect, onClose, pollAxes, pollLoops, resetRates } from "./feed.js";
 import { LoopStrip, Overview } from "./overview.js";
 import { ProgramPage } from "./program.js";
 import { can, notify, store, subscribe } from "./store.js";
@@ -43,7 +43,10 @@ async function start() {
   connect();
   clearInterval(loopTimer);
   pollLoops();
-  loopTimer = setInterval(pollLoops, 2000);
+  loopTimer = setInterval(() => {
+    pollLoops();
+    pollAxes();
+  }, 2000);
   notify();
 }
 

@@ -6,7 +6,17 @@ import { home, move, step } from "./actions.js";
 import { get, put, seg } from "./api.js";
 import { PositionPlot } from "./plot.js";
 import { can, isCurrent, store, toast } from "./store.js";
-import { Errors, HoldButton, LimitBar, OpLine, Position, StateBadges, StopButton, fmt } from "./widgets.js";
+import {
+  Errors,
+  HoldButton,
+  LimitBar,
+  OpLine,
+  Position,
+  SensorBadges,
+  StateBadges,
+  StopButton,
+  fmt,
+} from "./widgets.js";
 
 const HOME_METHODS = [
   ["0", "0: Low speed, search 1"],
@@ -41,7 +51,7 @@ function MoveForm({ axis }) {
     </select>
     <label class="check"><input type="checkbox" checked=${relative} onChange=${(e) => setRelative(e.currentTarget.checked)}
       data-testid="move-relative" /> relative</label>
-    <button type="submit" class="go" data-testid="move-go">Move</button>
+    <button type="submit" class="go" data-testid="move-go" aria-label="move ${axis.name || axis.id}">Move</button>
   </form>`;
 }
 
@@ -51,7 +61,7 @@ function HomeForm({ axis }) {
     <select value=${method} onChange=${(e) => setMethod(e.currentTarget.value)} aria-label="homing method">
       ${HOME_METHODS.map(([v, label]) => html`<option value=${v}>${label}</option>`)}
     </select>
-    <button type="submit">Home</button>
+    <button type="submit" aria-label="home ${axis.name || axis.id}">Home</button>
   </form>`;
 }
 
@@ -114,7 +124,6 @@ export function AxisPage({ id }) {
   const axis = store.axes.get(id) || [...store.axes.values()].find((a) => a.name === id);
   if (!axis) return html`<p class="muted">No axis ${id} (yet).</p>`;
   const current = isCurrent(axis);
-  const sensors = axis.sensors || {};
   return html`<div class="axispage ${current ? "" : "grey"}" data-axis=${axis.id} data-testid="axis-page">
     <header class="axishead">
       <a href="#/">← cell</a>
@@ -128,7 +137,7 @@ export function AxisPage({ id }) {
         <${LimitBar} axis=${axis} />
         <${Errors} axis=${axis} />
         <div class="sensors">
-          ${Object.entries(sensors).map(([k, v]) => html`<span class="sensor ${v ? "on" : ""}">${k.replaceAll("_", " ")}</span>`)}
+          <${SensorBadges} axis=${axis} />
         </div>
         <${OpLine} axisId=${axis.id} />
       </div>
@@ -143,8 +152,8 @@ export function AxisPage({ id }) {
               <${HoldButton} axisId=${axis.id} direction="cw" speed="high">high ▶▶<//>
             </div>
             <div class="steprow">
-              <button onClick=${() => step(axis.id, "ccw")}>− 1 pulse</button>
-              <button onClick=${() => step(axis.id, "cw")}>+ 1 pulse</button>
+              <button onClick=${() => step(axis.id, "ccw")} aria-label="step ${axis.name || axis.id} ccw 1 pulse">− 1 pulse</button>
+              <button onClick=${() => step(axis.id, "cw")} aria-label="step ${axis.name || axis.id} cw 1 pulse">+ 1 pulse</button>
             </div>
             <${HomeForm} axis=${axis} />
           </div>`

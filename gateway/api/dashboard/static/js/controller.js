@@ -6,12 +6,15 @@ import { html, useEffect, useState } from "../vendor/preact-htm/standalone.modul
 import { stopController } from "./actions.js";
 import { get, put, seg } from "./api.js";
 import { axesOf, can, store, toast } from "./store.js";
-import { ControllerPicker } from "./widgets.js";
+import { ControllerPicker, SensorBadges } from "./widgets.js";
 
 function PositionTable({ ctl }) {
   const [start, setStart] = useState(0);
   const [rows, setRows] = useState([]);
   const [busy, setBusy] = useState(false);
+  // What is typed and not yet written, per entry: a redraw (every second) never puts the
+  // device's old value back under the user's fingers.
+  const [drafts, setDrafts] = useState({});
   const read = async () => {
     setBusy(true);
     const out = [];
@@ -23,15 +26,27 @@ function PositionTable({ ctl }) {
       }
     }
     setRows(out);
+    setDrafts({});
     setBusy(false);
   };
+  // The row shows what the device holds: read back after the write (and after a refusal,
+  // so the field never keeps a value the device does not have).
   const write = async (n, value) => {
+    const path = `/controllers/${seg(ctl.id)}/positions/${n}`;
     try {
-      await put(`/controllers/${seg(ctl.id)}/positions/${n}`, { position: Number(value) });
+      await put(path, { position: Number(value) });
       toast(`Position ${n} written`, "ok");
     } catch (err) {
       toast(`Position ${n}: ${err.message}`, "error", 9000);
     }
+    let row;
+    try {
+      row = await get(path);
+    } catch (err) {
+      row = { number: n, error: err.message };
+    }
+    setRows((before) => before.map((r) => (r.number === n ? row : r)));
+    setDrafts(({ [n]: _, ...rest }) => rest);
   };
   return html`<div class="postable">
     <label>from number <input type="number" min="0" max="990" value=${start} onInput=${(e) => setStart(Number(e.currentTarget.value))} /></label>
@@ -44,7 +59,9 @@ function PositionTable({ ctl }) {
               <td>${r.error
                 ? html`<span class="problem">${r.error}</span>`
                 : can("operator")
-                  ? html`<input type="number" value=${r.position} onChange=${(e) => write(r.number, e.currentTarget.value)} aria-label="position ${r.number}" />`
+                  ? html`<input type="number" value=${drafts[r.number] ?? r.position}
+                      onInput=${(e) => setDrafts({ ...drafts, [r.number]: e.currentTarget.value })}
+                      onChange=${(e) => write(r.number, e.currentTarget.value)} aria-label="position ${r.number} in pulses" data-testid="position-entry-${r.number}" />`
                   : r.position}</td>
               <td></td>
             </tr>`,
@@ -54,13 +71,20 @@ function PositionTable({ ctl }) {
   </div>`;
 }
 
-function Bits({ port, editable, onToggle, label }) {
-  return html`<div class="bits"><span class="bitlabel">${label}</span>
+// Outputs are switches (buttons, when the role may switch them); inputs are lamps: read-only
+// indicators that look like no control.
+function Bits({ port, editable, onToggle, label, kind }) {
+  return html`<div class="bits ${kind}" role="group" aria-label=${label} data-testid="${kind}-bits"><span class="bitlabel">${label}</span>
     ${[0, 1, 2, 3, 4, 5, 6, 7].map((bit) => {
       const on = port.on.includes(bit);
+      const name = `${kind === "inputs" ? "input" : "output"} ${bit} ${on ? "on" : "off"}`;
+      if (kind === "inputs") {
+        return html`<span class="lamp ${on ? "on" : ""}" role="img" aria-label=${name} title=${name} data-testid="input-${bit}">${bit}</span>`;
+      }
       return editable
-        ? html`<button class="bit ${on ? "on" : ""}" onClick=${() => onToggle(bit, !on)} aria-pressed=${on} title="bit ${bit}">${bit}</button>`
-        : html`<span class="bit ${on ? "on" : ""}" title="bit ${bit}">${bit}</span>`;
+        ? html`<button class="bit ${on ? "on" : ""}" onClick=${() => onToggle(bit, !on)} aria-pressed=${on}
+            aria-label="output ${bit}" title="switch output ${bit} ${on ? "off" : "on"}">${bit}</button>`
+        : html`<span class="bit ${on ? "on" : ""}" role="img" aria-label=${name} title=${name}>${bit}</span>`;
     })}
   </div>`;
 }
@@ -83,8 +107,8 @@ function Io({ ctl }) {
   if (error) return html`<p class="problem">${error}</p>`;
   if (!io) return html`<p class="muted">Reading the I/O…</p>`;
   return html`<div class="io">
-    <${Bits} port=${io.inputs} label="inputs" />
-    <${Bits} port=${io.outputs} label="outputs" editable=${can("operator")} onToggle=${toggle} />
+    <${Bits} port=${io.inputs} label="inputs" kind="inputs" />
+    <${Bits} port=${io.outputs} label="outputs" kind="outputs" editable=${can("operator")} onToggle=${toggle} />
     <p class="muted">${["inp1", "inp2", "clr1", "clr2"].filter((k) => io[k] != null).map((k) => `${k.toUpperCase()} ${io[k] ? "ON" : "off"}`).join(" · ")}</p>
     <button onClick=${read}>Read again</button>
   </div>`;
@@ -109,13 +133,13 @@ export function ControllerPage({ id }) {
       <h2>${ctl.name || ctl.id}</h2>
       <${ControllerPicker} view="controller" id=${ctl.id} />
       <span class="muted">${ctl.id} · mode ${ctl.mode ?? "?"} · ${ctl.version || ""}</span>
-      ${reads ? html`<button class="stop" onClick=${() => stopController(ctl.id)}>STOP ${ctl.name || ctl.id}</button>` : null}
+      ${reads ? html`<button class="stop" onClick=${() => stopController(ctl.id)} aria-label="stop both axes of ${ctl.name || ctl.id}">STOP ${ctl.name || ctl.id}</button>` : null}
       <a class="button" href="#/program/${ctl.id}">Program…</a>
     </header>
     <h3>Sensors</h3>
     ${axesOf(ctl.id).map(
       (axis) => html`<div class="sensors"><a href="#/axis/${axis.id}">${axis.name || axis.id}</a>
-        ${Object.entries(axis.sensors || {}).map(([k, v]) => html`<span class="sensor ${v ? "on" : ""}">${k.replaceAll("_", " ")}</span>`)}
+        <${SensorBadges} axis=${axis} />
         ${reads ? html`<${SensorLogic} ctl=${ctl} motor=${axis.motor} />` : null}
       </div>`,
     )}

@@ -5,7 +5,7 @@ import { Component, html } from "../vendor/preact-htm/standalone.module.js";
 import { stopController, stopLoop } from "./actions.js";
 import { PositionPlot } from "./plot.js";
 import { axesOf, can, isCurrent, loopDown, store } from "./store.js";
-import { Badge, Errors, HoldButton, LimitBar, OpLine, Position, StateBadges, StopButton } from "./widgets.js";
+import { Badge, Errors, HoldButton, LimitBar, OpLine, Position, StateBadges, StopButton, clock } from "./widgets.js";
 
 const PROGRAM = { 1: "running", 0: "ended", P: "paused", E: "error" };
 const MODE = { 0: "pulse", 1: "encoder", 2: "servo" };
@@ -28,7 +28,7 @@ export function LoopStrip() {
         <span class="metric" title="retries and time-outs per minute">${rate ? `${rate.retriesPerMin.toFixed(0)} retries, ${rate.timeoutsPerMin.toFixed(0)} t/o /min` : ""}</span>
         ${can("operator")
           ? html`<button class="stop loopstop" data-testid="stop-loop-${loop.name}" onClick=${() => stopLoop(loop.name)}
-              title="Stop every axis of loop ${loop.name}">STOP LOOP ${loop.name}</button>`
+              aria-label="stop every axis of loop ${loop.name}" title="Stop every axis of loop ${loop.name}">STOP LOOP ${loop.name}</button>`
           : null}
       </div>`;
     })}
@@ -73,11 +73,11 @@ function ControllerHeadBody({ ctl }) {
       <span>${ctl.version ? `V ${ctl.version}` : ""}</span>
       <span>program ${ctl.program == null ? "?" : PROGRAM[ctl.program] || ctl.program}</span>
       ${ctl.communication_error ? html`<span class="err">COMM</span>` : null}
-      ${ctl.latched.map((l) => html`<span class="err" title="since ${new Date((l.first || 0) * 1000).toLocaleTimeString()} (${l.count}×, ${l.source})">${l.kind}</span>`)}
+      ${ctl.latched.map((l) => html`<span class="err" title="since ${clock(l.first)} (${l.count}×, ${l.source})">${l.kind}</span>`)}
     </div>
     ${can("operator")
       ? html`<button class="stop ctlstop" data-testid="stop-controller-${ctl.id}" onClick=${() => stopController(ctl.id)}
-          title="Stop both axes of ${ctl.name || ctl.id}">STOP ${ctl.name || ctl.id}</button>`
+          aria-label="stop both axes of ${ctl.name || ctl.id}" title="Stop both axes of ${ctl.name || ctl.id}">STOP ${ctl.name || ctl.id}</button>`
       : null}
   </header>`;
 }
@@ -175,7 +175,7 @@ function AxisCardBody({ axis }) {
       ? html`<div class="controls">
           <${HoldButton} axisId=${axis.id} direction="ccw">◀ jog<//>
           <${HoldButton} axisId=${axis.id} direction="cw">jog ▶<//>
-          <a class="button" href="#/axis/${axis.id}">move…</a>
+          <a class="button" href="#/axis/${axis.id}" aria-label="move ${axis.name || axis.id}…">move…</a>
           <${StopButton} axisId=${axis.id} />
         </div>`
       : null}

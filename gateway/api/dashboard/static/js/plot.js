@@ -26,6 +26,28 @@ function lines(u, values, color, dash) {
   ctx.restore();
 }
 
+// A step of 1, 2 or 5 times a power of ten, about `span / count`.
+function niceStep(span, count) {
+  const rough = span / Math.max(count, 1);
+  const power = 10 ** Math.floor(Math.log10(rough));
+  const m = rough / power;
+  return (m < 1.5 ? 1 : m < 3.5 ? 2 : m < 7.5 ? 5 : 10) * power;
+}
+
+// The y scale's ticks: round values a step apart, as many as the plot's height has room for
+// (one every 28 px, at least two), so every label is one of several and none is mistaken
+// for the value.
+function yTicks(u, min, max) {
+  const room = Math.max(2, Math.floor(u.bbox.height / devicePixelRatio / 28));
+  const step = niceStep(max - min, room);
+  const out = [];
+  for (let v = Math.ceil(min / step) * step; v <= max + step * 1e-9; v += step) out.push(Math.abs(v) < step * 1e-9 ? 0 : v);
+  return { step, values: out };
+}
+
+// Digits enough to tell two ticks `step` apart, no more.
+const tickDigits = (step) => Math.max(0, Math.min(6, -Math.floor(Math.log10(step) + 1e-9)));
+
 // `every`: the shortest time between two redraws (ms); a plot out of view is not redrawn.
 export function PositionPlot({ axisId, height = 120, window = HISTORY_SECONDS, every = 50 }) {
   const box = useRef(null);
@@ -37,6 +59,7 @@ export function PositionPlot({ axisId, height = 120, window = HISTORY_SECONDS, e
       const live = op && !["done", "failed", "unknown"].includes(op.state);
       return { axis, target: live ? (op.target_user ?? op.target) : null };
     };
+    const measured = { key: "", size: 40 };
     const opts = {
       width: el.clientWidth || 300,
       height,
@@ -70,7 +93,40 @@ export function PositionPlot({ axisId, height = 120, window = HISTORY_SECONDS, e
       },
       axes: [
         { stroke: "#8fa3b8", grid: { stroke: "#2a3644" }, ticks: { stroke: "#2a3644" }, size: 28 },
-        { stroke: "#8fa3b8", grid: { stroke: "#2a3644" }, ticks: { stroke: "#2a3644" }, size: 56 },
+        {
+          stroke: "#8fa3b8",
+          grid: { stroke: "#2a3644" },
+          ticks: { stroke: "#2a3644" },
+          // As wide as the widest label ("60000 pulse" needs more room than "1 mm").
+          // Measured only when the labels change (every redraw asks).
+          size: (u, values) => {
+            if (!values || values.length === 0) return 40;
+            const key = values.join("|");
+            if (key === measured.key) return measured.size;
+            const { ctx } = u;
+            ctx.save();
+            ctx.font = u.axes[1].font?.[0] || ctx.font;
+            const widest = Math.max(...values.map((v) => ctx.measureText(v).width));
+            ctx.restore();
+            measured.key = key;
+            measured.size = Math.ceil(widest / devicePixelRatio) + 14;
+            return measured.size;
+          },
+          splits: (u, _i, min, max) => yTicks(u, min, max).values,
+          // Every label carries the unit; the labels drawn are also on the element, for
+          // screen readers and the tests.
+          values: (u, splits) => {
+            const unit = (store.axes.get(axisId) || {}).unit || "";
+            const digits = splits.length > 1 ? tickDigits(Math.abs(splits[1] - splits[0])) : 0;
+            const labels = splits.map((v) => `${v.toFixed(digits)} ${unit}`.trim());
+            const joined = labels.join("|");
+            if (el.dataset.yTicks !== joined) {
+              el.dataset.yTicks = joined;
+              el.setAttribute("aria-label", `position plot, scale ${labels[0] || ""} to ${labels[labels.length - 1] || ""}`);
+            }
+            return labels;
+          },
+        },
       ],
       series: [{}, { stroke: COLORS.position, width: 2, points: { show: false } }],
       hooks: {
@@ -127,5 +183,5 @@ export function PositionPlot({ axisId, height = 120, window = HISTORY_SECONDS, e
       plot.destroy();
     };
   }, [axisId, height, window, every]);
-  return html`<div class="plot" ref=${box} aria-label="position plot"></div>`;
+  return html`<div class="plot" ref=${box} role="img" aria-label="position plot" data-testid="plot"></div>`;
 }

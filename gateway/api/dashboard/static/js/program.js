@@ -6,7 +6,7 @@
 import { html, useEffect, useRef, useState } from "../vendor/preact-htm/standalone.module.js";
 import { get, post, put, seg } from "./api.js";
 import { can, consoleOf, store, toast } from "./store.js";
-import { ControllerPicker } from "./widgets.js";
+import { ControllerPicker, clock } from "./widgets.js";
 
 // The wire text has no line breaks: each '/' starts a statement.
 export const toWire = (text) => text.replace(/[\r\n]+/g, "");
@@ -14,6 +14,38 @@ export const toLines = (wire) => wire.split("/").slice(1).map((s) => `/${s}`).jo
 
 const EXAMPLE = "/D00\n/0\n/22000\n/3\n/T10\n/4\n/END";
 const STATES = { 1: "running", 0: "ended", P: "paused", E: "ended by an error" };
+// While a program runs or is paused its state and next step are read again this often
+// (GSS and GN, one short transaction); an ended program is not read again.
+const STATUS_EVERY_MS = 1000;
+const LIVE = new Set(["1", "P"]);
+
+// GSS and GN of the controller, read after every action and again while the program runs,
+// so the head never says "running" about a program that has printed its last line.
+function useStatus(base) {
+  const [status, setStatus] = useState(null);
+  const read = () =>
+    get(`${base}/status`).then(
+      (s) => (setStatus({ ...s, at: Date.now() / 1000 }), s),
+      () => null,
+    );
+  useEffect(() => {
+    setStatus(null);
+  }, [base]);
+  useEffect(() => {
+    if (!status || !LIVE.has(status.state)) return undefined;
+    const timer = setTimeout(read, STATUS_EVERY_MS);
+    return () => clearTimeout(timer);
+  }, [base, status]);
+  return [status, read];
+}
+
+// What the check refused, in full: the step, the statement, what is wrong (the gateway's
+// detail names the target and why) and the rule of the manual it breaks.
+function refusal(check) {
+  const detail = (check.detail || check.message || "").replace(/^step \d+: /, "");
+  const rule = check.rule && !detail.includes(check.rule) ? ` (rule: ${check.rule})` : "";
+  return `✗ ${check.step ? `step ${check.step}: ` : ""}${detail}${rule}`;
+}
 
 function useCheck(text) {
   const [result, setResult] = useState(null);
@@ -40,22 +72,34 @@ function useCheck(text) {
   return result;
 }
 
+// The page's own status read when it has one (read again while the program runs, and when
+// the poller's GSS in the controller's view changes), else the view's; the next step only
+// while the program runs or is paused (an ended program has none to run).
+function programState(ctl, status) {
+  const state = status ? status.state : ctl.program;
+  const step = status && LIVE.has(status.state) ? `, next step ${status.step}` : "";
+  return `state ${STATES[state] || state || "?"}${step}`;
+}
+
 export function ProgramPage({ id }) {
   const ctl = store.controllers.get(id) || [...store.controllers.values()].find((c) => c.name === id);
   const [text, setText] = useState(EXAMPLE);
-  const [status, setStatus] = useState(null);
   const area = useRef(null);
   const gutter = useRef(null);
   const check = useCheck(text);
+  const base = `/controllers/${seg(ctl?.id || id)}/program`;
+  const [status, readStatus] = useStatus(base);
+  useEffect(() => {
+    if (ctl && can("operator")) readStatus();
+  }, [base, ctl?.program]);
   if (!ctl) return html`<p class="muted">No controller ${id} (yet).</p>`;
   if (!can("operator")) return html`<p class="muted">Programs need the operator role.</p>`;
-  const base = `/controllers/${seg(ctl.id)}/program`;
   const act = async (what, fn) => {
     try {
       const r = await fn();
       if (r && r.outcome && r.outcome !== "done") toast(`${what}: ${r.outcome}`, "error", 9000);
       else toast(`${what}: done`, "ok");
-      setStatus(await get(`${base}/status`).catch(() => null));
+      await readStatus();
     } catch (err) {
       toast(`${what}: ${err.message}`, "error", 12000);
     }
@@ -68,7 +112,7 @@ export function ProgramPage({ id }) {
       <a href="#/controller/${ctl.id}">← ${ctl.name || ctl.id}</a>
       <h2>Program of ${ctl.name || ctl.id}</h2>
       <${ControllerPicker} view="program" id=${ctl.id} />
-      <span class="muted">state ${STATES[ctl.program] || ctl.program || "?"}${status ? `, next step ${status.step}` : ""}</span>
+      <span class="muted" data-testid="program-state">${programState(ctl, status)}</span>
     </header>
     <div class="editor">
       <div class="gutter" ref=${gutter} aria-hidden="true">
@@ -83,7 +127,7 @@ export function ProgramPage({ id }) {
         ? "…"
         : check.ok
           ? `✓ ${check.steps} steps, ${check.bytes} bytes`
-          : `✗ ${check.step ? `step ${check.step}: ` : ""}${check.rule || check.message}${check.field ? ` (${check.field})` : ""}`}
+          : refusal(check)}
     </div>
     <div class="programbuttons">
       ${can("admin")
@@ -97,7 +141,7 @@ export function ProgramPage({ id }) {
     </div>
     <h3>Output</h3>
     <pre class="console" data-testid="program-console">${output.length
-      ? output.map((l) => `${new Date(l.time * 1000).toLocaleTimeString()}  ${l.body ? "" : "(loop) "}${l.text}\n`).join("")
+      ? output.map((l) => `${clock(l.time)}  ${l.body ? "" : "(loop) "}${l.text}\n`).join("")
       : "(nothing yet)"}</pre>
   </div>`;
 }

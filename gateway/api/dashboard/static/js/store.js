@@ -80,6 +80,16 @@ export function applyChange(message) {
   }
 }
 
+// A view read with GET /axes: the feed publishes an axis only when a value changes, so an
+// idle axis's reading time moves on only here. Taken when it is newer than what the page has.
+export function applyAxisRead(axis) {
+  const known = store.axes.get(axis.id);
+  if (!known) return;
+  if (axis.updated != null && (known.updated == null || axis.updated > known.updated)) {
+    setAxis(axis, axis.updated);
+  }
+}
+
 function setAxis(axis, time) {
   store.axes.set(axis.id, axis);
   if (axis.position_user == null && axis.position == null) return;

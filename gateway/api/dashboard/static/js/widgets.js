@@ -24,6 +24,16 @@ export function digitsOf(unit) {
   return unit === "pulse" || unit === "pulses" ? 0 : 3;
 }
 
+// One clock for the whole page: 24-hour, with milliseconds where frames are told apart
+// (the trace). Never the locale's 12-hour form.
+export function clock(t, ms = false) {
+  if (t == null) return "";
+  const d = new Date(t * 1000);
+  const two = (n) => String(n).padStart(2, "0");
+  const hms = `${two(d.getHours())}:${two(d.getMinutes())}:${two(d.getSeconds())}`;
+  return ms ? `${hms}.${String(d.getMilliseconds()).padStart(3, "0")}` : hms;
+}
+
 export function age(updated) {
   if (updated == null) return "never read";
   const s = Math.max(0, Date.now() / 1000 - updated);
@@ -58,30 +68,73 @@ export function StateBadges({ axis }) {
         : html`<${Badge} kind="idle">STOPPED<//>`}
     ${axis.stale ? html`<${Badge} kind="stale" title="no fresh reading: the value is old">STALE<//>` : null}
     ${!current && !axis.stale ? html`<${Badge} kind="stale">NOT CURRENT<//>` : null}
-    <span class="age" title="time of the last reading">${age(axis.updated)}</span>
+    <span class="age" data-testid="age" title="last reading at ${clock(axis.updated)}">${age(axis.updated)}</span>
     ${op && op.target_user != null && !["done", "failed", "unknown"].includes(op.state)
       ? html`<span class="target">→ ${fmt(op.target_user, digitsOf(axis.unit))} ${axis.unit}</span>`
       : null}
   </span>`;
 }
 
+// Whether the axis's controller counts positions with a sign: mode 1 always does (§10 EP);
+// otherwise EP says, and a controller whose EP is not read yet counts as the device's default,
+// unsigned (EP0).
+export function signedCounting(axis) {
+  const ctl = store.controllers.get(axis.controller);
+  return !!ctl && (ctl.mode === 1 || ctl.signed_positions === true);
+}
+
+// The range the axis can really be sent to: the soft limits, and in unsigned counting no
+// position below 0 (a negative target wraps to 16,777,216 minus it there, §7-4).
+export function reachable(axis) {
+  let { soft_min: lo, soft_max: hi } = axis;
+  const floor = signedCounting(axis) ? null : 0;
+  const bySign = floor != null && (lo == null || lo < floor);
+  if (bySign) lo = floor;
+  return { lo, hi, bySign };
+}
+
 // The soft limits as a bar with the position (and the target) on it.
 export function LimitBar({ axis }) {
-  const { soft_min: lo, soft_max: hi } = axis;
+  const { lo, hi, bySign } = reachable(axis);
   if (lo == null || hi == null || hi <= lo) return html`<div class="limitbar none">no soft limits</div>`;
   const pos = axis.position_user;
   const op = store.ops.get(axis.id);
   const target = op && !["done", "failed", "unknown"].includes(op.state) ? op.target_user : null;
   const at = (v) => `${Math.min(100, Math.max(0, ((v - lo) / (hi - lo)) * 100))}%`;
   const outside = pos != null && (pos < lo || pos > hi);
-  return html`<div class="limitbar ${outside ? "outside" : ""}" title="soft limits ${lo} … ${hi} ${axis.unit}">
-    <span class="lim lo">${lo}</span>
+  const why = bySign
+    ? `${lo} ${axis.unit}: the controller counts unsigned (EP0), no position below 0; soft limits ${axis.soft_min ?? "none"} … ${hi} ${axis.unit}`
+    : `soft limits ${lo} … ${hi} ${axis.unit}`;
+  return html`<div class="limitbar ${outside ? "outside" : ""}" title=${why} data-testid="limitbar">
+    <span class="lim lo" data-testid="limit-low">${lo}</span>
     <div class="track">
       ${target != null ? html`<div class="mark target" style=${{ left: at(target) }}></div>` : null}
       ${pos != null ? html`<div class="mark pos" style=${{ left: at(pos) }}></div>` : null}
     </div>
-    <span class="lim hi">${hi}</span>
+    <span class="lim hi" data-testid="limit-high">${hi}</span>
   </div>`;
+}
+
+// A sensor's state as the manual reads it: a limit or EMS input that is ON stops the motor
+// (§8 CWLS/CCWLS, EMS): an alarm. ORG is ON at the origin, and the step-out sensor (EZ) turns
+// ON and OFF with every slot of its dog as the motor turns (§10 Q): both states of those are
+// normal, shown neutral.
+const ALARM_SENSORS = new Set(["cw_limit", "ccw_limit", "emergency_stop"]);
+const SENSOR_NAMES = {
+  cw_limit: "CW limit",
+  ccw_limit: "CCW limit",
+  org: "ORG",
+  emergency_stop: "EMS",
+  step_out_sensor: "step-out sensor",
+};
+
+export function SensorBadges({ axis }) {
+  return Object.entries(axis.sensors || {}).map(([k, v]) => {
+    const kind = !v ? "" : ALARM_SENSORS.has(k) ? "on alarm" : "on normal";
+    const name = SENSOR_NAMES[k] || k.replaceAll("_", " ");
+    return html`<span class="sensor ${kind}" data-testid="sensor-${k}"
+      title="${name} ${v ? "ON" : "OFF"}${v && !ALARM_SENSORS.has(k) ? " (normal)" : ""}">${name} ${v ? "ON" : "off"}</span>`;
+  });
 }
 
 const ERROR_NAMES = { limit: "LIMIT", emergency: "EMS", command: "COMMAND", step_out: "STEP-OUT" };
@@ -113,15 +166,20 @@ export function OpLine({ axisId }) {
   const why = e
     ? `: ${e.title || e.kind}${e.detail ? ` (${e.detail})` : ""}${e.outcome ? `, outcome ${e.outcome.replace("_", " ")}` : ""}`
     : "";
-  return html`<div class="op ${op.state}" data-testid="op" title=${op.frames?.join(" ")}>
+  return html`<div class="op ${op.state}" data-testid="op" title=${`${op.state} ${what}${end}${why}${op.frames?.length ? ` [${op.frames.join(" ")}]` : ""}`}>
     <span class="opstate">${op.state}</span> ${what}${end}${why}
   </div>`;
+}
+
+export function axisName(axisId) {
+  const axis = store.axes.get(axisId);
+  return axis?.name || axisId;
 }
 
 export function StopButton({ axisId, label = "STOP", cls = "" }) {
   if (!can("operator")) return null;
   return html`<button class="stop ${cls}" data-testid="stop" onClick=${() => stopAxis(axisId)}
-    title="Stop now (Escape)">${label}</button>`;
+    aria-label="stop ${axisName(axisId)}" title="Stop now (Escape)">${label}</button>`;
 }
 
 // Press and hold: pointer, or Space/Enter on the focused button. Sliding off the button
@@ -145,9 +203,10 @@ export function HoldButton({ axisId, direction, speed = "low", children }) {
       holdEnd();
     }
   };
+  const name = `jog ${axisName(axisId)} ${direction} ${speed} speed`;
   return html`<button class="jog" data-testid="jog-${direction}" onPointerDown=${start} onPointerUp=${holdEnd}
     onPointerCancel=${holdEnd} onPointerLeave=${holdEnd} onKeyDown=${key} onKeyUp=${keyUp}
-    onContextMenu=${(e) => e.preventDefault()} title="hold to jog ${direction}">${children}</button>`;
+    onContextMenu=${(e) => e.preventDefault()} aria-label=${name} title="hold to ${name}">${children}</button>`;
 }
 
 // Another controller, same view (settings or program).
