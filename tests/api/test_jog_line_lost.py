@@ -8,10 +8,16 @@ restored with the simulator's own control (``set_cut``)."""
 from __future__ import annotations
 
 import asyncio
+import logging
 from typing import Any
 
+import pytest
+
+from gateway.errors import ConflictError
 from gateway.service.events import EventKind, ServiceEvent
+from gateway.service.operations import durable
 from gateway.service.operations.types import OperationState
+from gateway.sim.control import Controls
 from tests.api.sim_app import Api, json_of, running_app
 
 WAIT = 30.0
@@ -61,6 +67,10 @@ async def test_a_jog_whose_line_was_cut_is_stopped_when_the_loop_comes_back() ->
         lost = json_of(await api.client.get(f"/operations/{ident}"))
         assert lost["state"] == "unknown" and lost["error"]["kind"] == "loop_down", lost
         assert jogging(api)  # the controller never heard a stop: it jogs on, unheld
+        # While the line is down, a new motion there is told to come back later (503), as
+        # any request that needs the line.
+        r = await api.client.post("/axes/y/move", json={"position": 5, "unit": "pulse"})
+        assert r.status_code == 503, r.text
         mark = api.mark()
         api.sim.act(lambda now: api.sim.set_cut(False, now))
         # Once the loop is up: SS (§10 SS, the decelerating stop), and the axis stops.
@@ -77,6 +87,10 @@ async def test_a_jog_whose_line_was_cut_is_stopped_when_the_loop_comes_back() ->
         assert final["error"]["kind"] == "loop_down" and final["error"]["outcome"] == "not_done"
         assert "$1SS" in final["error"]["detail"], final["error"]
         assert operation_states(api.events, ident)[-2:] == ["unknown", "failed"]
+        # The controller is free again: a new jog there is taken.
+        r = await api.client.post("/axes/x/jog", json={"direction": "ccw", "speed": "low"})
+        assert r.status_code == 202, r.text
+        await api.client.post("/axes/x/stop", json={"mode": "decelerate"})
         # Audited as a stop no request made.
         entries = json_of(await api.client.get("/audit"))["entries"]
         stops = [e for e in entries if e.get("event") == "linkup_stop"]
@@ -102,3 +116,43 @@ async def test_a_move_whose_line_was_cut_is_not_stopped_when_the_loop_comes_back
         # The poller's reads after the link-up have gone out; a stop would have gone first.
         await until_event(api, lambda: len(api.heard("1", mark)) >= 3)
         assert "SS" not in api.heard("1", mark) and "S" not in api.heard("1", mark)
+
+
+async def test_a_jog_whose_stop_is_not_taken_after_the_outage_stays_unknown(
+    monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    # Controller 1 lost its power during the outage: the loop comes back (2 and 3 answer), the
+    # stop is tried for the read-back's time (shortened here) and never taken; in the end
+    # nobody claims the axis stopped.
+    monkeypatch.setattr(durable, "RESTART_READ_BACK", 6.0)
+    caplog.set_level(logging.ERROR, "gateway.service")
+    async with running_app() as api:
+        r = await api.client.post("/axes/x/jog", json={"direction": "cw", "speed": "low"})
+        assert r.status_code == 202, r.text
+        ident = json_of(r)["id"]
+        await api.until(lambda: api.operations.get(ident).state is OperationState.MOVING)
+        api.sim.act(lambda now: api.sim.set_cut(True, now))
+        await until_event(api, lambda: api.operations.get(ident).state is OperationState.UNKNOWN)
+        first = api.operations.get(ident).error
+        # Until its stop and read-back are done, its controller takes no new motion (the SS
+        # would stop it, and the read-back would judge it): refused before anything is sent.
+        # (Over HTTP the dead loop answers 503 first, and after the link-up the controller off.)
+        with pytest.raises(ConflictError, match=ident):
+            await api.operations.run(
+                api.gateway.topology.axis("y"), "move", {}, (), motor=2, holder="test"
+            )
+        Controls(api.sim).power("1", False)
+        api.sim.act(lambda now: api.sim.set_cut(False, now))
+
+        def said() -> bool:
+            error = api.operations.get(ident).error
+            return error is not None and error is not first
+
+        await until_event(api, said)
+        final = json_of(await api.client.get(f"/operations/{ident}"))
+        assert final["state"] == "unknown" and final["error"]["kind"] == "loop_down", final
+        assert "may still be moving" in final["error"]["detail"], final["error"]
+        entries = json_of(await api.client.get("/audit"))["entries"]
+        stops = [e for e in entries if e.get("event") == "linkup_stop"]
+        assert len(stops) == 1 and stops[0]["result"] != "done" and stops[0]["error"], stops
+    assert "ran while its loop was down and could not be stopped" in caplog.text, caplog.text
