@@ -31,7 +31,13 @@ from typing import Any
 
 from gateway.protocol import commands as cmd
 from gateway.protocol.reply_values import StatusFlags
-from gateway.service.operations.restart_stop import HOLD_TO_RUN, RestartStop, stop_left_running
+from gateway.service.operations.restart_stop import (
+    AT_RESTART,
+    HOLD_TO_RUN,
+    Occasion,
+    RestartStop,
+    stop_left_running,
+)
 from gateway.service.operations.types import Operation, OperationError, OperationState
 from gateway.service.runtime.runtime import Runtime
 from gateway.service.topology import Topology
@@ -110,24 +116,32 @@ def from_record(record: dict[str, Any], topology: Topology) -> Operation | None:
 
 
 async def read_back_after_restart(
-    gateway: Runtime, op: Operation, on_stop: Callable[[RestartStop], object] | None = None
+    gateway: Runtime,
+    op: Operation,
+    on_stop: Callable[[RestartStop], object] | None = None,
+    occasion: Occasion = AT_RESTART,
 ) -> Verdict:
     """The verdict on ``op``, which had not ended when the gateway stopped (see the module);
-    a hold-to-run motion is stopped first, and ``on_stop`` told what the stop did."""
+    a hold-to-run motion is stopped first, and ``on_stop`` told what the stop did.
+
+    ``occasion`` ``AT_LINK_UP``: the same for a jog whose loop went down while it ran, now that
+    the loop is up again (``line_stop``); its verdict names that, with the error kind
+    ``loop_down``."""
     loop = asyncio.get_running_loop()
     give_up = loop.time() + RESTART_READ_BACK
     stop: RestartStop | None = None
     if op.kind in HOLD_TO_RUN:
-        stop = await stop_left_running(gateway, op, give_up)
+        stop = await stop_left_running(gateway, op, give_up, occasion)
         if on_stop is not None:
             on_stop(stop)
         if not stop.sent:
             detail = (
-                f"the gateway restarted while the {op.kind} was {op.state.value}; its holder is "
+                f"{occasion.context(op)}; its holder is "
                 f"gone, and its stop ({stop.command}, §10 {stop.command}) did not take effect "
                 f"({stop.outcome.value}: {stop.error}): the axis may still be moving"
             )
-            return OperationState.UNKNOWN, _error("Outcome unknown", detail, "unknown"), None
+            error = OperationError.of(occasion.kind, "Outcome unknown", detail, "unknown")
+            return OperationState.UNKNOWN, error, None
     pause = 0.1
     last = "the loop did not come up"
     while True:
@@ -149,10 +163,11 @@ async def read_back_after_restart(
             last = str(exc) or type(exc).__name__
         if loop.time() >= give_up:
             detail = (
-                f"the gateway restarted while the {op.kind} was {op.state.value}, and its axis "
+                f"{occasion.context(op)}, and its axis "
                 f"could not be read back within {RESTART_READ_BACK:.0f} s: {last}"
             )
-            return OperationState.UNKNOWN, _error("Outcome unknown", detail, "unknown"), None
+            error = OperationError.of(occasion.kind, "Outcome unknown", detail, "unknown")
+            return OperationState.UNKNOWN, error, None
         await asyncio.sleep(pause)  # a back-off between attempts, not a synchronisation
         pause = min(pause * 2, 2.0)
 
@@ -200,8 +215,9 @@ def _judge(op: Operation, flags: StatusFlags, position: int) -> Verdict:
 
 def _judge_stopped(op: Operation, stop: RestartStop, flags: StatusFlags, position: int) -> Verdict:
     sent = " ".join(stop.frames) or stop.command
+    occasion = stop.occasion
     seen = (
-        f"the gateway restarted while the {op.kind} was {op.state.value}; its holder was gone, "
+        f"{occasion.context(op)}; its holder was gone, "
         f"so the gateway stopped it ({sent}, §10 {stop.command}); read back then: {position} "
         "pulses"
     )
@@ -216,7 +232,8 @@ def _judge_stopped(op: Operation, stop: RestartStop, flags: StatusFlags, positio
     if op.target is not None and position == op.target:
         # A jog toward a soft limit is a move to it: it had arrived before the stop.
         return OperationState.DONE, None, position
-    return OperationState.FAILED, _error("Stopped at restart", seen, "not_done"), position
+    error = OperationError.of(occasion.kind, occasion.title, seen, "not_done")
+    return OperationState.FAILED, error, position
 
 
 def _error(title: str, detail: str, outcome: str) -> OperationError:

@@ -31,8 +31,9 @@ from gateway.errors import ConflictError, DeviceError, NotFoundError, StateUnava
 from gateway.protocol.models import Command
 from gateway.service.events import EventKind, ServiceEvent
 from gateway.service.operations.durable import from_record, read_back_after_restart, to_record
+from gateway.service.operations.line_stop import LineStops
 from gateway.service.operations.motion_watch import MotionWatch
-from gateway.service.operations.restart_stop import RestartStop
+from gateway.service.operations.restart_stop import RestartStop, tell
 from gateway.service.operations.types import (
     FINAL,
     Operation,
@@ -70,6 +71,7 @@ class Operations:
         self._resolved: list[Callable[[Operation], object]] = []
         self._restart_stops: list[Callable[[RestartStop], object]] = []
         self._watch = MotionWatch(gateway, self)
+        self._line_stops = LineStops(gateway, self, lambda stop: tell(self._restart_stops, stop))
         #: per controller, the operation left unended by the last process, being read back
         self._restored: dict[tuple[str, str], Operation] = {}
         self._tasks: set[asyncio.Task[None]] = set()
@@ -77,6 +79,7 @@ class Operations:
     def close(self) -> None:
         """Stop listening (the gateway is closing)."""
         self._watch.close()
+        self._line_stops.close()
         for task in self._tasks:
             task.cancel()
 
@@ -100,7 +103,7 @@ class Operations:
 
     async def _judge_restored(self, op: Operation) -> None:
         state, error, position = await read_back_after_restart(
-            self.gateway, op, lambda stop: _tell(self._restart_stops, stop)
+            self.gateway, op, lambda stop: tell(self._restart_stops, stop)
         )
         self._restored.pop((op.axis.loop, op.axis.body), None)
         op.position = position if position is not None else op.position
@@ -182,11 +185,12 @@ class Operations:
                 "in progress (§2: its two motors never move together)",
                 field="axis",
             )
-        restored = self._restored.get(key)
+        restored = self._restored.get(key) or self._line_stops.pending(*key)
         if restored is not None:
             raise ConflictError(
-                f"controller {axis.controller_id}: operation {restored.id}, in progress when the "
-                "gateway stopped, is being read back; a motion now would make it unknowable",
+                f"controller {axis.controller_id}: operation {restored.id}, a jog nobody holds "
+                "any more (the gateway stopped, or its loop went down, under it), is being "
+                "stopped and read back; a motion now would make it unknowable",
                 field="axis",
             )
         unsure = self._watch.reading_back(*key)
@@ -350,7 +354,7 @@ class Operations:
             del self._active[key]
         self.advance(op, state)
         op.finished.set()
-        if state is OperationState.UNKNOWN:
+        if state is OperationState.UNKNOWN and not self._line_stops.follow(op):
             self._watch.read_back_later(op)
 
     def resolve(
@@ -391,11 +395,3 @@ class Operations:
         self.gateway.events.publish(
             ServiceEvent(EventKind.OPERATION, f"axis:{op.axis.id}", time.time(), data)
         )
-
-
-def _tell(listeners: list[Callable[[RestartStop], object]], stop: RestartStop) -> None:
-    for callback in list(listeners):
-        try:
-            callback(stop)
-        except Exception:  # one bad listener must not stop the others
-            log.exception("operation %s: restart-stop listener failed", stop.operation.id)

@@ -15,6 +15,11 @@ gateway and is left to run (stop it with ``POST /controllers/{id}/program/stop``
 
 ``RestartStop`` is what the attempt did; it goes to the log and, through
 ``Operations.on_restart_stop``, to the audit log (``audit_entry``).
+
+The same stop ends a jog whose loop went down while it ran (its holder's release could not
+reach it through the dead line), once the loop is up again (``line_stop``): one mechanism for
+"stop the jogs nobody holds"; the ``Occasion`` says which it was, in the audit, the log and the
+operation's verdict.
 """
 
 from __future__ import annotations
@@ -22,6 +27,7 @@ from __future__ import annotations
 import asyncio
 import logging
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from typing import Any
@@ -33,7 +39,16 @@ from gateway.protocol import commands as cmd
 from gateway.service.operations.types import Operation, frames_of
 from gateway.service.runtime.runtime import Runtime
 
-__all__ = ["HOLD_TO_RUN", "RestartStop", "stop_left_running"]
+__all__ = [
+    "AT_LINK_UP",
+    "AT_RESTART",
+    "HOLD_TO_RUN",
+    "Occasion",
+    "RestartStop",
+    "link_up",
+    "stop_left_running",
+    "tell",
+]
 
 log = logging.getLogger("gateway.service")
 
@@ -46,6 +61,33 @@ RETRY_PAUSE = 0.2
 RETRY_PAUSE_MAX = 2.0
 
 
+@dataclass(frozen=True)
+class Occasion:
+    """Why a hold-to-run motion has nobody holding it, as its stop and its verdict say it."""
+
+    event: str  # the audit entry's ``event``
+    left: str  # the log's words for how it was left running
+    kind: str  # the ``OperationError.kind`` of the verdict
+    title: str  # the verdict's title when the stop took effect
+    while_: str  # "<what happened> while the <kind> ..." in the verdict's detail
+
+    def context(self, op: Operation) -> str:
+        """How the motion came to be unheld, for the verdict's detail."""
+        return self.while_.format(kind=op.kind, state=op.state.value, loop=op.axis.loop)
+
+
+#: A jog in flight when the gateway process died.
+AT_RESTART = Occasion(
+    "restart_stop", "was left running by the last process", "restart", "Stopped at restart",
+    "the gateway restarted while the {kind} was {state}",
+)  # fmt: skip
+#: A jog whose loop went down while it ran, stopped once the loop is up again.
+AT_LINK_UP = Occasion(
+    "linkup_stop", "ran while its loop was down", "loop_down",
+    "Stopped when the loop came back", "loop {loop} went down while the {kind} ran",
+)  # fmt: skip
+
+
 @dataclass
 class RestartStop:
     """What the stop of ``operation``, sent at restart, did."""
@@ -56,6 +98,7 @@ class RestartStop:
     frames: list[str] = field(default_factory=list)
     error: str | None = None
     time: float = field(default_factory=time.time)
+    occasion: Occasion = AT_RESTART
 
     @property
     def sent(self) -> bool:
@@ -63,7 +106,7 @@ class RestartStop:
         return self.outcome is Outcome.DONE
 
     def audit_entry(self, prefix: str) -> dict[str, Any]:
-        """The audit entry of the stop: no request made it, the gateway did at its start."""
+        """The audit entry of the stop: no request made it, the gateway did on its own."""
         op = self.operation
         stamp = datetime.fromtimestamp(self.time, UTC).isoformat(timespec="milliseconds")
         return {
@@ -71,7 +114,7 @@ class RestartStop:
             "token": op.holder,
             "method": "STOP",
             "path": f"{prefix}/controllers/{op.axis.controller_id}/stop",
-            "event": "restart_stop",
+            "event": self.occasion.event,
             "bytes_sent": list(self.frames),
             "result": self.outcome.value,
             "error": self.error,
@@ -79,17 +122,19 @@ class RestartStop:
         }
 
 
-async def stop_left_running(gateway: Runtime, op: Operation, give_up: float) -> RestartStop:
+async def stop_left_running(
+    gateway: Runtime, op: Operation, give_up: float, occasion: Occasion = AT_RESTART
+) -> RestartStop:
     """Send ``SS`` to the controller of ``op`` as soon as its loop is up, trying again until
     the loop time ``give_up``; what was sent and how it went."""
     command = cmd.slow_stop()
-    stop = RestartStop(op, command.wire())
+    stop = RestartStop(op, command.wire(), occasion=occasion)
     scheduler = gateway.scheduler(op.axis.loop)
     loop = asyncio.get_running_loop()
     pause = RETRY_PAUSE
     while True:
         if scheduler.state is not LinkState.UP:
-            await _link_up(gateway, op.axis.loop, give_up - loop.time())
+            await link_up(gateway, op.axis.loop, give_up - loop.time())
         try:
             result = await scheduler.stop(op.axis.body, command)
         except LoopDown as exc:
@@ -112,8 +157,9 @@ async def stop_left_running(gateway: Runtime, op: Operation, give_up: float) -> 
     return stop
 
 
-async def _link_up(gateway: Runtime, name: str, timeout: float) -> None:
-    """Until loop ``name`` is up (woken by its ``LinkUp``), at most ``timeout`` seconds."""
+async def link_up(gateway: Runtime, name: str, timeout: float | None) -> None:
+    """Until loop ``name`` is up (woken by its ``LinkUp``), at most ``timeout`` seconds
+    (None: however long it takes)."""
     scheduler = gateway.scheduler(name)
     up = asyncio.Event()
 
@@ -124,7 +170,7 @@ async def _link_up(gateway: Runtime, name: str, timeout: float) -> None:
     unsubscribe = scheduler.events.subscribe(seen)
     try:
         if scheduler.state is not LinkState.UP:
-            await asyncio.wait_for(up.wait(), max(timeout, 0.0))
+            await asyncio.wait_for(up.wait(), None if timeout is None else max(timeout, 0.0))
     except TimeoutError:
         pass  # the attempt after this fails with the loop's own reason
     finally:
@@ -141,11 +187,20 @@ def _log(stop: RestartStop) -> None:
     op = stop.operation
     if stop.sent:
         log.warning(
-            "operation %s: the %s on axis %s was left running by the last process; "
-            "stopped it: %s", op.id, op.kind, op.axis.id, " ".join(stop.frames),
+            "operation %s: the %s on axis %s %s; stopped it: %s",
+            op.id, op.kind, op.axis.id, stop.occasion.left, " ".join(stop.frames),
         )  # fmt: skip
     else:
         log.error(
-            "operation %s: the %s on axis %s was left running by the last process and could "
-            "not be stopped (%s): %s", op.id, op.kind, op.axis.id, stop.outcome.value, stop.error,
+            "operation %s: the %s on axis %s %s and could not be stopped (%s): %s",
+            op.id, op.kind, op.axis.id, stop.occasion.left, stop.outcome.value, stop.error,
         )  # fmt: skip
+
+
+def tell(listeners: list[Callable[[RestartStop], object]], stop: RestartStop) -> None:
+    """Give ``stop`` to each of ``listeners`` (the audit): one failing spoils no other."""
+    for callback in list(listeners):
+        try:
+            callback(stop)
+        except Exception:  # one bad listener must not stop the others
+            log.exception("operation %s: stop listener failed", stop.operation.id)
