@@ -249,6 +249,10 @@ class LoopCore:
             self.bus.defer()
         self.counters.exchanges += 1
         sent = self._classify(body, command, exchange.event, reply_framing, motor, exchange.late)
+        if exchange.event is not None and _misfit(command, sent):
+            # It may be another command's reply, come late: the line is out of step until it
+            # has been quiet long enough (``Link.resync``, before the next frame).
+            self.link.out_of_step = True
         self._after(body, command, sent, framing, motor)
         if exchange.heard:
             self.silent.clear()
@@ -343,3 +347,11 @@ class LoopCore:
         self.deaf_until.pop(body, None)
         self.eeprom_event.set()
         self.eeprom_event = asyncio.Event()
+
+
+def _misfit(command: Command, sent: Sent) -> bool:
+    """A reply that does not fit the form its command expects: a line error, never a value
+    (DESIGN invariant 13). A garbled or bad-checksum message, or a bare '>' to a query."""
+    if sent.kind in (ReplyKind.GARBLED, ReplyKind.CHECKSUM):
+        return True
+    return sent.kind is ReplyKind.ACCEPTED and command.reply_format.has_data
