@@ -36,6 +36,7 @@ from gateway.protocol.models import Command
 from gateway.protocol.replies import (
     ReplyValue,
 )
+from gateway.protocol.reply_values import ProgramState
 from gateway.protocol.reply_parser import (
     Accepted,
     ChecksumMismatch,
@@ -254,6 +255,10 @@ class LoopCore:
             # has been quiet long enough (``Link.resync``, before the next frame).
             self.link.out_of_step = True
         self._after(body, command, sent, framing, motor)
+        if _program_news(command, sent):
+            # A program started, ended or was seen running or ended: it may have selected
+            # another motor with no frame of the gateway's (§10 G, F in programs).
+            self.doubt(body)
         if exchange.heard:
             self.silent.clear()
             self.answering.add(body)
@@ -355,3 +360,11 @@ def _misfit(command: Command, sent: Sent) -> bool:
     if sent.kind in (ReplyKind.GARBLED, ReplyKind.CHECKSUM):
         return True
     return sent.kind is ReplyKind.ACCEPTED and command.reply_format.has_data
+
+
+def _program_news(command: Command, sent: Sent) -> bool:
+    """Whether ``sent`` tells that a user program started, ended, or runs (or may have)."""
+    form = command.form
+    if form in cmd.PROGRAM_STARTS or form in cmd.PROGRAM_ENDS:
+        return True
+    return isinstance(sent.value, ProgramState)
