@@ -15,6 +15,7 @@ from dataclasses import replace
 from types import MappingProxyType
 from typing import Any, Protocol
 
+from gateway.bus.position_presets import PRESETS_ONE, presets_positions
 from gateway.bus.state_types import MOTORS, ControllerState, ErrorKind
 from gateway.protocol import commands
 from gateway.protocol.framing import POWER_ON
@@ -146,6 +147,14 @@ class _Reading:
             self.ctl(signed_positions=form is commands.SET_SIGNED_POSITIONS)
         elif form is commands.LOAD_SETTINGS:  # the settings, EP among them, reloaded (§10 DL)
             self.ctl(signed_positions=None)
+        if presets_positions(self.command):
+            self.positions_unknown(ctl)
+
+    def positions_unknown(self, ctl: ControllerState) -> None:
+        """A position changed without motion (``position_presets``): stale until read back."""
+        motor = self.motor(ctl) if self.command.form in PRESETS_ONE else None
+        for m in MOTORS if motor is None else (motor,):
+            self.axis(m, stale=True)
 
     def framing(self, field: str, on: bool) -> None:
         """Set the ``Framing`` field ``field`` (``echo``, ``checksum`` ...) to ``on``."""
