@@ -69,12 +69,12 @@ async def run(
         faults = Faults(seed=5)
         faults.add(FaultRule(kind, probability=probability, delay=delay))
         sim.act(lambda now: setattr(sim, "faults", faults))
-        link = scheduler._link  # noqa: SLF001 - the link's own resync figures
-        resyncs, held = link.resyncs, link.resync_time
+        resyncs, held = scheduler.resync_figures()
         before = scheduler.snapshot()
         late, late_ok = await _reads(scheduler, reads)
         after = scheduler.snapshot()
-        n_resync = link.resyncs - resyncs
+        resyncs_after, held_after = scheduler.resync_figures()
+        n_resync = resyncs_after - resyncs
         late_replies = after.late_replies - before.late_replies
         per_clean, per_late = clean / reads, late / reads
         return {
@@ -85,16 +85,14 @@ async def run(
             "late_delay_s": delay,
             "resync_quiet_ms": round(scheduler.timing.resync_quiet() * 1000, 1),
             "resyncs": n_resync,
-            "resync_ms": round((link.resync_time - held) / max(1, n_resync) * 1000, 1),
+            "resync_ms": round((held_after - held) / max(1, n_resync) * 1000, 1),
             "late_replies": late_replies,
             "timeouts": after.timeouts - before.timeouts,
             "answered_clean": clean_ok,
             "answered_late": late_ok,
             "reads_per_s_clean": round(reads / clean, 1),
             "reads_per_s_late": round(reads / late, 1),
-            "line_ms_per_fault": round(
-                (per_late - per_clean) * reads / max(1, n_resync) * 1000, 1
-            ),
+            "line_ms_per_fault": round((per_late - per_clean) * reads / max(1, n_resync) * 1000, 1),
         }
     finally:
         await scheduler.close()
@@ -109,9 +107,7 @@ def main() -> None:
     parser.add_argument("--delay", type=float, default=0.09, help="device seconds")
     parser.add_argument("--kind", choices=["late", "drop"], default="late", help="the fault")
     args = parser.parse_args()
-    figures = asyncio.run(
-        run(args.reads, args.probability, args.delay, 9600, FaultKind(args.kind))
-    )
+    figures = asyncio.run(run(args.reads, args.probability, args.delay, 9600, FaultKind(args.kind)))
     print(json.dumps(figures))
 
 

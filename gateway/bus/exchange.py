@@ -36,7 +36,6 @@ from gateway.protocol.models import Command
 from gateway.protocol.replies import (
     ReplyValue,
 )
-from gateway.protocol.reply_values import ProgramState
 from gateway.protocol.reply_parser import (
     Accepted,
     ChecksumMismatch,
@@ -45,6 +44,7 @@ from gateway.protocol.reply_parser import (
     NotAccepted,
     ReplyEvent,
 )
+from gateway.protocol.reply_values import ProgramState
 from gateway.protocol.spec import Effect, Scope
 
 __all__ = ["DOUBT", "LoopCore", "Sent"]

@@ -40,9 +40,7 @@ _LONGEST_DATA = REPLY_OVERHEAD + CAPACITY_BYTES
 #: The longest reply of fixed width any command gets (§15: ``V``'s version text). A program's
 #: text (``IR``) is longer, but it is a stream of bytes: while it flows the line is not quiet.
 LONGEST_FIXED_REPLY = max(
-    length
-    for fmt in ReplyFormat
-    if fmt.has_data and (length := reply_length(fmt)) is not None
+    length for fmt in ReplyFormat if fmt.has_data and (length := reply_length(fmt)) is not None
 )
 
 

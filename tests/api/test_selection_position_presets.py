@@ -26,8 +26,10 @@ async def test_a_preset_through_commands_is_stale_until_read_back_then_right() -
         assert r.json()["outcome"] == "done", r.text
         assert api.position("1", 1) == 5000  # the device's counter
         axis = [dict(c.values) for c in changes if (c.body, c.motor) == ("1", 1)]
-        stale_at = next(i for i, v in enumerate(axis) if v.get("stale") is True)
-        known_at = next(i for i, v in enumerate(axis) if v.get("position") == 5000)
+        stale = [i for i, v in enumerate(axis) if v.get("stale") is True]
+        known = [i for i, v in enumerate(axis) if v.get("position") == 5000]
+        assert stale and known, f"never stale, or never 5000: {axis}"
+        stale_at, known_at = stale[0], known[0]
         # Stale first, never the old position as fresh; fresh again with the new one.
         assert stale_at < known_at, axis
         assert all(v.get("stale") is not False for v in axis[stale_at:known_at]), axis
