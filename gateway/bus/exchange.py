@@ -234,6 +234,7 @@ class LoopCore:
         switch = framing_switch(framing, text) if command.form.switches_framing else None
         reply_framing = switch.reply if switch is not None else framing
         frame = encode_command(body, text, series=series, framing=framing)
+        ran = self.link.programs.may_run(body)  # before this frame and its reply
         self.link.programs.sending(body, command)  # a program may print before G's '>' ends
         exchange = await self.link.exchange(
             body,
@@ -255,7 +256,7 @@ class LoopCore:
             # has been quiet long enough (``Link.resync``, before the next frame).
             self.link.out_of_step = True
         self._after(body, command, sent, framing, motor)
-        if _program_news(command, sent):
+        if _program_news(command, sent, ran=ran):
             # A program started, ended or was seen running or ended: it may have selected
             # another motor with no frame of the gateway's (§10 G, F in programs).
             self.doubt(body)
@@ -362,9 +363,13 @@ def _misfit(command: Command, sent: Sent) -> bool:
     return sent.kind is ReplyKind.ACCEPTED and command.reply_format.has_data
 
 
-def _program_news(command: Command, sent: Sent) -> bool:
-    """Whether ``sent`` tells that a user program started, ended, or runs (or may have)."""
+def _program_news(command: Command, sent: Sent, *, ran: bool) -> bool:
+    """Whether ``sent`` tells that a user program started, ended, or runs (or may have);
+    ``ran``: one may have run before this frame. A ``GSS`` of 0 where none was seen running
+    tells nothing (the poller reads it every condition period)."""
     form = command.form
     if form in cmd.PROGRAM_STARTS or form in cmd.PROGRAM_ENDS:
         return True
-    return isinstance(sent.value, ProgramState)
+    if not isinstance(sent.value, ProgramState):
+        return False
+    return ran or sent.value is not ProgramState.ENDED
