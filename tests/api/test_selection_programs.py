@@ -4,6 +4,7 @@ command of the gateway selects its own motor again with F before it acts."""
 
 from __future__ import annotations
 
+from gateway.bus.state_types import Change
 from tests.api.sim_app import Api, running_app
 
 PROGRAM = "/controllers/sim.1/program"
@@ -42,3 +43,29 @@ async def test_after_a_program_moved_motor_2_a_rest_move_of_motor_1_selects_moto
         assert heard.index("F1") < heard.index("3"), heard
         assert api.position("1", 1) == 250  # motor 1 moved
         assert api.position("1", 2) == 300  # the conveyor stayed
+
+
+async def test_a_programs_motion_is_shown_on_the_motor_that_moves() -> None:
+    async with running_app() as api:
+        await api.identified()
+        r = await api.client.post(
+            "/controllers/sim.1/commands", params={"motor": 1}, json={"command": "OH"}
+        )
+        assert r.status_code == 200, r.text  # motor 1 selected, and known so
+        changes: list[Change] = []
+        stop = api.gateway.state.changes.subscribe(changes.append)
+        try:
+            r = await api.client.put(PROGRAM, json={"text": "/F2/240000/3///END"})
+            assert r.status_code == 200, r.text
+            r = await api.client.post(f"{PROGRAM}/run", json={})
+            assert r.status_code == 200, r.text
+            await api.until(lambda: api.position("1", 2) == 40000, timeout=60)
+            await api.until(lambda: not api.gateway.state.axis("sim", "1", 2).moving, timeout=30)
+        finally:
+            stop()
+        one = [dict(c.values) for c in changes if (c.body, c.motor) == ("1", 1)]
+        two = [dict(c.values) for c in changes if (c.body, c.motor) == ("1", 2)]
+        assert any(v.get("moving") is True for v in two), two
+        assert not any(v.get("moving") is True for v in one), one
+        assert not any("position" in v for v in one), one  # motor 1 stood at 0 all along
+        assert api.position("1", 1) == 0
