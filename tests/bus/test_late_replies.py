@@ -57,3 +57,16 @@ async def test_a_reply_that_does_not_fit_its_form_is_a_line_error_never_a_value(
     assert nine.outcome is not Outcome.DONE or nine.value == 3333
     assert ten.value == 4444  # never entry 9's, come late
     assert bus.scheduler.resync_figures()[0] >= 2  # after the time-out and the misfit
+
+
+async def test_a_clean_line_never_waits_for_a_resync(make_bus: MakeBus) -> None:
+    bus = await make_bus("12")
+    for body in "12":
+        await bus.scheduler.submit(body, [parse("A0015555"), parse("OH4000")], motor=2)
+        await bus.scheduler.submit(body, [parse("21500"), parse("31")], motor=1)  # to 1,500
+        await bus.wait_idle(body)
+        for text in ("A001D", "OH", "61", "62", "", "97", "V"):
+            assert (await bus.scheduler.submit(body, parse(text), motor=2)).ok
+    assert bus.position("1", 1) == bus.position("2", 1) == 1500
+    assert bus.scheduler.resync_figures()[0] == 0
+    assert bus.scheduler.snapshot().late_replies == 0
