@@ -69,3 +69,22 @@ async def test_a_programs_motion_is_shown_on_the_motor_that_moves() -> None:
         assert not any(v.get("moving") is True for v in one), one
         assert not any("position" in v for v in one), one  # motor 1 stood at 0 all along
         assert api.position("1", 1) == 0
+
+
+async def test_after_a_raw_f2_a_rest_move_of_motor_1_selects_motor_1() -> None:
+    async with running_app() as api:
+        await api.identified()
+        r = await api.client.post(
+            "/controllers/sim.1/commands", params={"motor": 1}, json={"command": "OH"}
+        )
+        assert r.status_code == 200, r.text  # motor 1 selected, and known so
+        r = await api.client.post("/loops/sim/raw", json={"controller": "1", "text": "F2"})
+        assert r.status_code == 200 and r.json()["outcome"] == "done", r.text
+        mark = api.mark()
+        move = await api.client.post(
+            "/axes/sim.1.1/move", params={"wait": "true"}, json={"position": 250, "unit": "pulse"}
+        )
+        assert move.status_code == 200, move.text
+        heard = api.heard(since=mark)
+        assert "F1" in heard and heard.index("F1") < heard.index("3"), heard
+        assert (api.position("1", 1), api.position("1", 2)) == (250, 0)
