@@ -254,7 +254,7 @@ class LoopCore:
         if exchange.event is not None and _misfit(command, sent):
             # It may be another command's reply, come late: the line is out of step until it
             # has been quiet long enough (``Link.resync``, before the next frame).
-            self.link.out_of_step = True
+            self.link.step_out(late=sent.late)
         self._after(body, command, sent, framing, motor)
         if _program_news(command, sent, ran=ran):
             # A program started, ended or was seen running or ended: it may have selected

@@ -124,11 +124,14 @@ class Link(Receiver):
         ``limit`` and a few quiet periods, still out of step: the next exchange waits again.
         """
         pending.late_phase = True
-        quiet = max(self.timing.late_quiet(reply_len), self.timing.resync_quiet(echoed))
+        base = max(self.timing.late_quiet(reply_len), self.timing.resync_quiet(echoed))
+        quiet = self.lateness.quiet(base)
         loop = asyncio.get_running_loop()
         began = loop.time()
+        self.lateness.timed_out(began)
         end = began + limit + _RESYNC_PERIODS * quiet
         settled = False
+        first_chunk = self._rx_chunks
         while not pending.future.done() and loop.time() < end:
             mark = self._rx_chunks
             await pending.wait(min(quiet, max(0.0, end - loop.time())))
@@ -140,6 +143,10 @@ class Link(Receiver):
                 self._route(event)
             self._idle.set()
             self.out_of_step = not settled
+            if settled and self._rx_chunks == first_chunk:
+                self.lateness.silent()
+        else:
+            self.lateness.arrived(loop.time())  # its own reply, this late
         self.resync_time += loop.time() - began
         self.resyncs += 1
         return pending.future.done() and pending.future.exception() is None
@@ -148,10 +155,11 @@ class Link(Receiver):
         """Bring the line back in step: wait until it has been quiet for the longest reply of
         the loop; what arrives meanwhile is counted late and dropped (DESIGN invariant 13).
         ``echoed``: the length of a frame an EE1 controller echoes before its reply."""
-        quiet = self.timing.resync_quiet(echoed)
+        quiet = self.lateness.quiet(self.timing.resync_quiet(echoed))
         loop = asyncio.get_running_loop()
         began = loop.time()
         end = began + _RESYNC_PERIODS * quiet
+        first_chunk = self._rx_chunks
         self.resyncing = True
         self._trace.add(self._clock(), FrameDirection.NOTE, body, b"", "resync")
         try:
@@ -160,6 +168,8 @@ class Link(Receiver):
                 await self._quiet_for(min(quiet, end - loop.time()))
                 if self._rx_chunks == mark:
                     self.out_of_step = False
+                    if mark == first_chunk:
+                        self.lateness.silent()
                     break
             for event in self.parser.line_quiet():
                 self._route(event)

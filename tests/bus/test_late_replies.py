@@ -9,7 +9,11 @@ what a user of the line notices: the values the callers got.
 
 from __future__ import annotations
 
+import pytest
+
+from gateway.bus.lateness import CAP, MARGIN, Lateness
 from gateway.bus.requests import Outcome
+from gateway.bus.timing import Timing
 from gateway.protocol.registry import parse
 from gateway.sim.faults import FaultKind
 from tests.bus.conftest import MakeBus
@@ -70,3 +74,20 @@ async def test_a_clean_line_never_waits_for_a_resync(make_bus: MakeBus) -> None:
     assert bus.position("1", 1) == bus.position("2", 1) == 1500
     assert bus.scheduler.resync_figures()[0] == 0
     assert bus.scheduler.snapshot().late_replies == 0
+
+
+def test_the_resync_waits_longer_on_a_line_that_has_shown_late_replies() -> None:
+    timing = Timing(9600)
+    base = timing.resync_quiet()
+    lateness = Lateness()
+    assert lateness.quiet(base) == base  # nothing seen: the longest reply of the loop
+    lateness.arrived(5.0)  # no time-out yet: nothing to measure from
+    assert lateness.quiet(base) == base
+    lateness.timed_out(10.0)
+    lateness.arrived(10.0 + base)  # a reply came as late as the whole silence
+    assert lateness.quiet(base) == pytest.approx(MARGIN * base)
+    lateness.arrived(10.0 + 5 * CAP)  # far too late to be a reply: not learnt
+    assert lateness.quiet(base) == pytest.approx(MARGIN * base)
+    for _ in range(100):  # silent resyncs: back to the base
+        lateness.silent()
+    assert lateness.quiet(base) == base
