@@ -5,7 +5,8 @@ longest reply any controller can send plus the turnaround (``Timing.resync_quiet
 shows its own lateness on top (a device server's buffers, a USB adapter, a busy host): each
 reply that completes after its time-out, and each reply-shaped message that comes when no
 exchange awaits it soon after one, says how long after a time-out a reply can still come.
-The resync then waits ``MARGIN`` times the longest such lateness seen, up to ``CAP``; every
+The resync then waits ``MARGIN`` times the longest such lateness seen, up to ``MOST`` times
+the longest reply's silence (a stray that noise made of a reply must not stall the line); every
 resync that stays silent lets the figure decay, so a line that was late once does not pay for
 it for ever. Host seconds throughout (the event loop's clock).
 """
@@ -14,12 +15,14 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-__all__ = ["CAP", "DECAY", "MARGIN", "Lateness"]
+__all__ = ["CAP", "DECAY", "MARGIN", "MOST", "Lateness"]
 
 #: The resync waits this many times the longest lateness seen.
 MARGIN = 1.5
 #: No lateness beyond this is learnt (host seconds): a message that late is no reply.
 CAP = 1.0
+#: The silence is never more than this many times the longest reply's (``Timing.resync_quiet``).
+MOST = 3.0
 #: Each silent resync keeps this share of the lateness learnt (some 35 to halve it).
 DECAY = 0.98
 
@@ -50,4 +53,4 @@ class Lateness:
 
     def quiet(self, base: float) -> float:
         """The silence to wait for: ``base`` (the longest reply), or more on a late line."""
-        return max(base, MARGIN * self.seen)
+        return max(base, min(MARGIN * self.seen, MOST * base))

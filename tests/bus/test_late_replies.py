@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import pytest
 
-from gateway.bus.lateness import CAP, MARGIN, Lateness
+from gateway.bus.lateness import CAP, MARGIN, MOST, Lateness
 from gateway.bus.requests import Outcome
 from gateway.bus.timing import Timing
 from gateway.protocol.registry import parse
@@ -88,6 +88,8 @@ def test_the_resync_waits_longer_on_a_line_that_has_shown_late_replies() -> None
     assert lateness.quiet(base) == pytest.approx(MARGIN * base)
     lateness.arrived(10.0 + 5 * CAP)  # far too late to be a reply: not learnt
     assert lateness.quiet(base) == pytest.approx(MARGIN * base)
-    for _ in range(100):  # silent resyncs: back to the base
+    lateness.arrived(10.0 + CAP / 2)  # a stray long after: the silence grows, but not far
+    assert lateness.quiet(base) == pytest.approx(MOST * base)
+    for _ in range(200):  # silent resyncs: back to the base
         lateness.silent()
     assert lateness.quiet(base) == base
