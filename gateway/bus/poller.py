@@ -256,13 +256,13 @@ class Poller:
             identified = await self._identify(plan, ctl.online)
         elif job in (Job.STATUS, Job.STATUS_MOVING, Job.PROBE):
             # While a motor moves it is the selected one (F is refused, §10 F): an unconfirmed
-            # selection is read back with 97 first, in the same transaction, so that the
-            # status shows the motion on the motor that moves (a program's too: it selects
+            # selection is read back with 97 right after the status, in the same transaction,
+            # so that the motion is shown on the motor that moves (a program's too: it selects
             # with no frame of ours) and the position stream can read 6 without a suffix.
             unsure = ctl.moving or self._programs(plan.body)
             confirm = [] if ctl.selection_confirmed or not unsure else [_condition_bit(7)]
             extra = confirm if job is not Job.PROBE else []
-            answered = await self._poll(plan, *extra, _STATUS, was=ctl.online)
+            answered = await self._poll(plan, _STATUS, *extra, was=ctl.online)
             if answered and self._moving(plan.body):
                 self._stream(plan.body)  # a move seen (or one whose stream was cut off)
             elif answered and plan.deferred:

@@ -164,8 +164,8 @@ class _Reading:
 
     def status(self, ctl: ControllerState, flags: StatusFlags) -> None:
         # "" clears bits 1-3 after the reply (§10 "" 注意点): latch them now or lose them.
-        if flags.moving and not ctl.moving and ctl.selected_motor is not None:
-            self.ctl(last_moved=ctl.selected_motor)
+        if flags.moving and ctl.selection_confirmed and ctl.selected_motor is not None:
+            self.ctl(last_moved=ctl.selected_motor)  # the moving motor is the selected one
         self.ctl(status=flags, moving=flags.moving)
         kinds = {k for name, k in _STATUS_KINDS.items() if getattr(flags, name)}
         self.latch(kinds)

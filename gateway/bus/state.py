@@ -198,7 +198,7 @@ class StateCache:
     def _derive_axes(self, now: float, loop: str, body: str) -> None:
         """The axis fields that follow from the controller: moving, selected, errors."""
         ctl = self._ctls[loop, body]  # its updated does not matter here
-        moving_motor = ctl.selected_motor if ctl.moving else None
+        moving_motor = _moving_motor(ctl)
         for m in MOTORS:
             shows = {k: m in ctl.latched[k].axes for k in AXIS_ERRORS if k in ctl.latched}
             step_out = bool(ctl.condition_bits.get(6)) and error_motor(ctl) in (None, m)
@@ -373,3 +373,15 @@ class StateCache:
             updated = self._fresh.get(key, axis.updated)
             if updated is None or now - updated > self.stale_after:
                 self.write_axis(now, loop, body, m, stale=True)
+
+
+def _moving_motor(ctl: ControllerState) -> int | None:
+    """The motor a moving controller moves: the selected one, once the selection is known
+    (read back, or the motor the gateway's own motion command named: ``last_moved``). A
+    selection in doubt (a user program selects with no frame of the gateway's) names no
+    motor until ``97`` is read (§10 F: F is refused while moving, so it shows the mover)."""
+    if not ctl.moving:
+        return None
+    if ctl.selection_confirmed or ctl.last_moved == ctl.selected_motor:
+        return ctl.selected_motor
+    return None
