@@ -44,6 +44,7 @@ from gateway.protocol.reply_parser import (
     NotAccepted,
     ReplyEvent,
 )
+from gateway.protocol.reply_values import ProgramState
 from gateway.protocol.spec import Effect, Scope
 
 __all__ = ["DOUBT", "LoopCore", "Sent"]
@@ -233,6 +234,7 @@ class LoopCore:
         switch = framing_switch(framing, text) if command.form.switches_framing else None
         reply_framing = switch.reply if switch is not None else framing
         frame = encode_command(body, text, series=series, framing=framing)
+        ran = self.link.programs.may_run(body)  # before this frame and its reply
         self.link.programs.sending(body, command)  # a program may print before G's '>' ends
         exchange = await self.link.exchange(
             body,
@@ -249,7 +251,15 @@ class LoopCore:
             self.bus.defer()
         self.counters.exchanges += 1
         sent = self._classify(body, command, exchange.event, reply_framing, motor, exchange.late)
+        if exchange.event is not None and _misfit(command, sent):
+            # It may be another command's reply, come late: the line is out of step until it
+            # has been quiet long enough (``Link.resync``, before the next frame).
+            self.link.step_out(late=sent.late)
         self._after(body, command, sent, framing, motor)
+        if _program_news(command, sent, ran=ran):
+            # A program started, ended or was seen running or ended: it may have selected
+            # another motor with no frame of the gateway's (§10 G, F in programs).
+            self.doubt(body)
         if exchange.heard:
             self.silent.clear()
             self.answering.add(body)
@@ -343,3 +353,23 @@ class LoopCore:
         self.deaf_until.pop(body, None)
         self.eeprom_event.set()
         self.eeprom_event = asyncio.Event()
+
+
+def _misfit(command: Command, sent: Sent) -> bool:
+    """A reply that does not fit the form its command expects: a line error, never a value
+    (DESIGN invariant 13). A garbled or bad-checksum message, or a bare '>' to a query."""
+    if sent.kind in (ReplyKind.GARBLED, ReplyKind.CHECKSUM):
+        return True
+    return sent.kind is ReplyKind.ACCEPTED and command.reply_format.has_data
+
+
+def _program_news(command: Command, sent: Sent, *, ran: bool) -> bool:
+    """Whether ``sent`` tells that a user program started, ended, or runs (or may have);
+    ``ran``: one may have run before this frame. A ``GSS`` of 0 where none was seen running
+    tells nothing (the poller reads it every condition period)."""
+    form = command.form
+    if form in cmd.PROGRAM_STARTS or form in cmd.PROGRAM_ENDS:
+        return True
+    if not isinstance(sent.value, ProgramState):
+        return False
+    return ran or sent.value is not ProgramState.ENDED

@@ -6,11 +6,14 @@ counted, traced, and still searched for ``$B#*``/``$B#T`` and, while a program m
 its lines), registers the expected reply with the parser *before* writing, writes, and waits
 the reply time-out that ``timing`` computes from the baud rate and the frame lengths.
 
-After a time-out the expectation is kept while the line is busy and until it has been quiet
-for the longest possible reply time of the command: a reply that completes then is the
-command's own reply, counted as late; anything else that arrives then is counted as late and
-dropped. Only then does the next frame go out, after the stale input is discarded, so a late
-reply is never taken for the next command's reply.
+After a time-out the line is out of step (DESIGN invariant 13) until it is brought back: the
+expectation is kept while the line is busy and until it has been quiet for the longest reply
+any controller of the loop can send, plus the turnaround (``Timing.resync_quiet``): a reply
+that completes then is the command's own reply, counted as late; anything else that arrives
+then is counted as late and dropped. Only then does the next frame go out, after the stale
+input is discarded, so a late reply is never taken for the next command's reply. A reply
+that does not fit its command's form, or bytes that come after an exchange has ended, put
+the line out of step the same way: ``resync`` waits for that silence before the next frame.
 
 The reading side (reader task, parser, routing) is ``receiver.Receiver``.
 """
@@ -29,6 +32,10 @@ from gateway.protocol.reply_parser import ReplyEvent, Unsolicited
 from gateway.transport.base import TransportClosed
 
 __all__ = ["Exchange", "Link", "LinkLost"]
+
+#: Quiet periods a resync waits at most for silence: a line that never falls quiet (noise, a
+#: program printing without end) is left out of step rather than holding every frame back.
+_RESYNC_PERIODS = 4
 
 
 @dataclass(frozen=True)
@@ -69,6 +76,8 @@ class Link(Receiver):
         if self.lost_cause is not None:
             raise LinkLost(self.lost_cause)
         await self._settle()
+        if self.out_of_step:
+            await self.resync(body, len(frame) if framing.echo else 0)
         self._discard_stale(body)
         self.parser.configure(framing=framing, series=series, printing=self.programs.printing)
         self.parser.expect(
@@ -84,7 +93,8 @@ class Link(Receiver):
             await pending.wait(limit)
             late = False
             if not pending.future.done():
-                late = await self._late_window(pending, reply_len, limit)
+                echoed = sent_before + len(frame) if framing.echo else 0
+                late = await self._late_window(pending, reply_len, limit, echoed)
             if pending.future.done():
                 event: ReplyEvent | None = pending.future.result()  # raises LinkLost
             else:
@@ -103,26 +113,79 @@ class Link(Receiver):
             if not pending.future.done():
                 pending.future.cancel()
 
-    async def _late_window(self, pending: Pending, reply_len: int, limit: float) -> bool:
-        """After the time-out: keep the expectation until the line is quiet long enough.
+    async def _late_window(
+        self, pending: Pending, reply_len: int, limit: float, echoed: int
+    ) -> bool:
+        """After the time-out: keep the expectation until the line has been quiet for the
+        longest reply of the loop (``Timing.resync_quiet``): the line is back in step then.
 
-        True when the reply completed in this window. A line that never falls quiet (noise)
-        ends the window after another ``limit`` seconds.
+        True when the reply completed in this window (it is the command's own: every earlier
+        exchange ended in step). A line that never falls quiet (noise) ends the window after
+        ``limit`` and a few quiet periods, still out of step: the next exchange waits again.
         """
         pending.late_phase = True
-        quiet = self.timing.late_quiet(reply_len)
+        base = max(self.timing.late_quiet(reply_len), self.timing.resync_quiet(echoed))
+        quiet = self.lateness.quiet(base)
         loop = asyncio.get_running_loop()
-        end = loop.time() + max(limit, quiet)
+        began = loop.time()
+        self.lateness.timed_out(began)
+        end = began + limit + _RESYNC_PERIODS * quiet
+        settled = False
+        first_chunk = self._rx_chunks
         while not pending.future.done() and loop.time() < end:
             mark = self._rx_chunks
             await pending.wait(min(quiet, max(0.0, end - loop.time())))
             if self._rx_chunks == mark:  # a whole quiet period without a byte
+                settled = True
                 break
         if not pending.future.done():
             for event in self.parser.line_quiet():  # a reply cut short may end here
                 self._route(event)
             self._idle.set()
+            self.out_of_step = not settled
+            if settled and self._rx_chunks == first_chunk:
+                self.lateness.silent()
+        else:
+            self.lateness.arrived(loop.time())  # its own reply, this late
+        self.resync_time += loop.time() - began
+        self.resyncs += 1
         return pending.future.done() and pending.future.exception() is None
+
+    async def resync(self, body: str, echoed: int = 0) -> None:
+        """Bring the line back in step: wait until it has been quiet for the longest reply of
+        the loop; what arrives meanwhile is counted late and dropped (DESIGN invariant 13).
+        ``echoed``: the length of a frame an EE1 controller echoes before its reply."""
+        quiet = self.lateness.quiet(self.timing.resync_quiet(echoed))
+        loop = asyncio.get_running_loop()
+        began = loop.time()
+        end = began + _RESYNC_PERIODS * quiet
+        first_chunk = self._rx_chunks
+        self.resyncing = True
+        self._trace.add(self._clock(), FrameDirection.NOTE, body, b"", "resync")
+        try:
+            while loop.time() < end and self.lost_cause is None:
+                mark = self._rx_chunks
+                await self._quiet_for(min(quiet, end - loop.time()))
+                if self._rx_chunks == mark:
+                    self.out_of_step = False
+                    if mark == first_chunk:
+                        self.lateness.silent()
+                    break
+            for event in self.parser.line_quiet():
+                self._route(event)
+            self._idle.set()
+        finally:
+            self.resyncing = False
+            self.resync_time += loop.time() - began
+            self.resyncs += 1
+        if self.lost_cause is not None:
+            raise LinkLost(self.lost_cause)
+
+    async def _quiet_for(self, seconds: float) -> None:
+        """Wait ``seconds`` (the line's silence is judged by the chunks received meanwhile);
+        woken early only when the line is lost."""
+        with contextlib.suppress(TimeoutError):
+            await asyncio.wait_for(self.lost.wait(), max(0.0, seconds))
 
     async def _settle(self) -> None:
         """Wait (at most one quiet period) for a message still arriving to end."""
@@ -172,6 +235,8 @@ class Link(Receiver):
         if self.lost_cause is not None:
             raise LinkLost(self.lost_cause)
         await self._settle()
+        if self.out_of_step:
+            await self.resync(body)
         self._discard_stale(body)
         self.parser.cancel()
         loop = asyncio.get_running_loop()

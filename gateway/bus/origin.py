@@ -74,12 +74,17 @@ class OriginWriter(Protocol):
 
 def axis_moving(ctl: ControllerState, motor: int) -> bool | None:
     """Whether ``motor`` moves: None while not read, or while a motor moves and which one is
-    not known (a status read says that one moves, not which, §10 "", §10 F)."""
+    not known (a status read says that one moves, not which, §10 "", §10 F). The mover is
+    the selected motor once the selection is known (read back, or the motor the gateway's
+    own motion command named: ``last_moved``); a selection in doubt (a user program selects
+    with no frame of the gateway's) names no motor until ``97`` is read (§10 F: F is
+    refused while moving, so the selection shows the mover)."""
     if ctl.moving is None:
         return None
     if not ctl.moving:
         return False
-    if ctl.selected_motor is None:
+    known = ctl.selection_confirmed or ctl.last_moved == ctl.selected_motor
+    if ctl.selected_motor is None or not known:
         return None
     return ctl.selected_motor == motor
 

@@ -76,8 +76,11 @@ class Poller:
         time_scale: float = 1.0,
         clock: Callable[[], float] | None = None,
         publish: Callable[[BusEvent], None] | None = None,
+        programs: Callable[[str], bool] | None = None,
     ) -> None:
         self._scheduler = scheduler
+        #: whether a controller's user program may run (it may select a motor any time)
+        self._programs = programs or (lambda _body: False)
         self._state = state
         #: where what the poller learns goes (the scheduler's event bus; the cache alone
         #: when there is none)
@@ -259,9 +262,11 @@ class Poller:
             identified = await self._identify(plan, ctl.online)
         elif job in (Job.STATUS, Job.STATUS_MOVING, Job.PROBE):
             # While a motor moves it is the selected one (F is refused, §10 F): an unconfirmed
-            # selection is read back with 97 in the same transaction, so that the position
-            # stream can read 6 without a suffix.
-            confirm = [] if ctl.selection_confirmed or not ctl.moving else [_condition_bit(7)]
+            # selection is read back with 97 right after the status, in the same transaction,
+            # so that the motion is shown on the motor that moves (a program's too: it selects
+            # with no frame of ours) and the position stream can read 6 without a suffix.
+            unsure = ctl.moving or self._programs(plan.body)
+            confirm = [] if ctl.selection_confirmed or not unsure else [_condition_bit(7)]
             extra = confirm if job is not Job.PROBE else []
             answered = await self._poll(plan, _STATUS, *extra, was=ctl.online)
             if answered and self._moving(plan.body):
@@ -390,6 +395,7 @@ def attach(
         time_scale=scheduler.config.time_scale,
         clock=scheduler.clock,
         publish=scheduler.events.publish,
+        programs=scheduler.program_may_run,
     )
     # The state first, whoever subscribes when: the poller (and every other subscriber) reads
     # what the event has just taught it.

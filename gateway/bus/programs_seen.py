@@ -38,6 +38,10 @@ class ProgramsSeen:
         """Whether any program of the loop may be running (and printing)."""
         return bool(self._bodies)
 
+    def may_run(self, body: str) -> bool:
+        """Whether ``body``'s program may be running: it may select a motor at any time."""
+        return body in self._bodies
+
     def sole(self) -> str | None:
         """The body number of the one controller whose program may run; None otherwise."""
         return next(iter(self._bodies)) if len(self._bodies) == 1 else None

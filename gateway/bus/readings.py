@@ -21,6 +21,7 @@ from gateway.bus.origin import (
     origin_program,
     origin_status,
 )
+from gateway.bus.position_presets import PRESETS_ONE, presets_positions
 from gateway.bus.state_types import MOTORS, AxisState, ControllerState, ErrorKind
 from gateway.protocol import commands
 from gateway.protocol.framing import POWER_ON
@@ -164,6 +165,14 @@ class _Reading:
             self.ctl(signed_positions=form is commands.SET_SIGNED_POSITIONS)
         elif form is commands.LOAD_SETTINGS:  # the settings, EP among them, reloaded (§10 DL)
             self.ctl(signed_positions=None)
+        if presets_positions(self.command):
+            self.positions_unknown(ctl)
+
+    def positions_unknown(self, ctl: ControllerState) -> None:
+        """A position changed without motion (``position_presets``): stale until read back."""
+        motor = self.motor(ctl) if self.command.form in PRESETS_ONE else None
+        for m in MOTORS if motor is None else (motor,):
+            self.axis(m, stale=True)
 
     def framing(self, field: str, on: bool) -> None:
         """Set the ``Framing`` field ``field`` (``echo``, ``checksum`` ...) to ``on``."""
@@ -173,8 +182,8 @@ class _Reading:
 
     def status(self, ctl: ControllerState, flags: StatusFlags) -> None:
         # "" clears bits 1-3 after the reply (§10 "" 注意点): latch them now or lose them.
-        if flags.moving and not ctl.moving and ctl.selected_motor is not None:
-            self.ctl(last_moved=ctl.selected_motor)
+        if flags.moving and ctl.selection_confirmed and ctl.selected_motor is not None:
+            self.ctl(last_moved=ctl.selected_motor)  # the moving motor is the selected one
         self.ctl(status=flags, moving=flags.moving)
         kinds = {k for name, k in _STATUS_KINDS.items() if getattr(flags, name)}
         self.latch(kinds)

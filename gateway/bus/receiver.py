@@ -17,6 +17,7 @@ import contextlib
 from collections.abc import Callable
 
 from gateway.bus.counters import Counters
+from gateway.bus.lateness import Lateness
 from gateway.bus.programs_seen import ProgramsSeen
 from gateway.bus.timing import Timing
 from gateway.bus.trace import FrameDirection, LineTrace
@@ -142,6 +143,16 @@ class Receiver:
         #: any byte received since ``start`` (a reconnect that works resets the backoff)
         self.heard_any = False
         self._last_frame = b""  # the last frame written, to recognise its echo (EE1)
+        #: a reply may still come that no exchange awaits (a time-out, a reply that did not
+        #: fit its command, bytes after a reply): no reply is trusted until ``Link.resync``
+        self.out_of_step = False
+        #: a resync is waiting for silence: whatever arrives is late and dropped
+        self.resyncing = False
+        #: how late this line's replies come (the resync's silence grows with it)
+        self.lateness = Lateness()
+        #: resyncs made (after time-outs included) and the host seconds they held the line
+        self.resyncs = 0
+        self.resync_time = 0.0
 
     # ------------------------------------------------------------------ lifetime
 
@@ -151,6 +162,7 @@ class Receiver:
         self.lost.clear()
         self.silent_timeouts = 0
         self.heard_any = False
+        self.out_of_step = False  # a new connection: nothing is on its way on it yet
         self.parser = ReplyParser()
         self._idle.set()
         self._reader = asyncio.get_running_loop().create_task(self._read_loop(), name="bus-reader")
@@ -232,6 +244,13 @@ class Receiver:
             self._route(event)
         self._idle.set()
 
+    def step_out(self, *, late: bool) -> None:
+        """The line is out of step (``Link.resync`` before the next frame); ``late``: a reply
+        came now that belongs to an earlier exchange (its lateness is learnt)."""
+        self.out_of_step = True
+        if late:
+            self.lateness.arrived(asyncio.get_running_loop().time())
+
     def _printed(self, event: ReplyEvent) -> bool:
         """A program's line, while a program may print: never taken for a late reply."""
         return self.programs.printing and printed(event)
@@ -245,13 +264,21 @@ class Receiver:
         if isinstance(event, Unsolicited) and event.kind in ALWAYS_MEANT:
             self._on_unsolicited(event)  # '$B#*' / '$B#T' are never a reply (parser notes)
             return
-        if pending is not None and pending.late_phase and not self._printed(event):
+        late = pending is not None and pending.late_phase
+        if (late or self.resyncing) and not self._printed(event):
+            self.lateness.arrived(asyncio.get_running_loop().time())
             self._counters.late_replies += 1
-            self._trace.add(self._clock(), FrameDirection.NOTE, pending.body, event.raw, "late")
+            where = pending.body if pending is not None else self.last_body
+            self._trace.add(self._clock(), FrameDirection.NOTE, where, event.raw, "late")
             return
         if isinstance(event, Unsolicited):
+            if not self.programs.printing and not printed(event):
+                self.step_out(late=True)  # a query reply nobody awaits: see below
             self._on_unsolicited(event)
             return
+        # Bytes no exchange awaits, shaped like a reply: one more came than was asked for.
+        # The line is out of step until it has been quiet long enough (``Link.resync``).
+        self.step_out(late=True)
         if isinstance(event, Garbled):
             self._counters.garbled += 1
         elif isinstance(event, ChecksumMismatch):

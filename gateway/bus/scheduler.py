@@ -117,6 +117,15 @@ class LoopScheduler(LoopLifecycle):
         """The motor the scheduler believes selected on ``body`` (None: not known)."""
         return self._core.selected(body)
 
+    def program_may_run(self, body: str) -> bool:
+        """Whether ``body``'s user program may be running (``ProgramsSeen``)."""
+        return self._programs.may_run(body)
+
+    def resync_figures(self) -> tuple[int, float]:
+        """Resyncs of the line so far (after time-outs included) and the host seconds they
+        held it (``Link.resync``)."""
+        return self._link.resyncs, self._link.resync_time
+
     def framing(self, body: str) -> Framing:
         """The framing the scheduler uses for ``body``."""
         return self._core.framing.get(body)

@@ -389,7 +389,10 @@ class StateCache:
         """A reset of controller ``body`` was seen (``cause``): both origins are lost, and
         nothing read before ``now`` counts. ``read``: the motor whose reading (0) showed it,
         kept; the other counter is not known until read."""
-        self.write_controller(now, loop, body, reset_at=now, reset_cause=cause)
+        # A reset also selects a motor the gateway did not choose (DESIGN invariant 5).
+        self.write_controller(
+            now, loop, body, reset_at=now, reset_cause=cause, selection_confirmed=False
+        )
         for m in MOTORS:
             unread = {} if m == read else {"position": None, "counter": None, "stale": True}
             self.write_axis(

@@ -24,6 +24,7 @@ from gateway.protocol.spec import ReplyFormat
 __all__ = [
     "BITS_PER_CHAR",
     "CHECKSUM_CHARS",
+    "LONGEST_FIXED_REPLY",
     "Timing",
     "ack_chars",
     "char_time",
@@ -36,6 +37,11 @@ __all__ = [
 CHECKSUM_CHARS = 2
 #: the longest data reply: ``IR`` with a full program (§10 IR; capacity §1, §10 I)
 _LONGEST_DATA = REPLY_OVERHEAD + CAPACITY_BYTES
+#: The longest reply of fixed width any command gets (§15: ``V``'s version text). A program's
+#: text (``IR``) is longer, but it is a stream of bytes: while it flows the line is not quiet.
+LONGEST_FIXED_REPLY = max(
+    length for fmt in ReplyFormat if fmt.has_data and (length := reply_length(fmt)) is not None
+)
 
 
 def char_time(baud: int) -> float:
@@ -140,3 +146,13 @@ class Timing:
         turnaround): bytes that come later than that after a time-out belong to no exchange.
         """
         return self.real(self.wire(reply_len) + self.turnaround)
+
+    def resync_quiet(self, sent_len: int = 0) -> float:
+        """Host seconds of silence that bring the line back in step after a lost reply.
+
+        The longest reply any controller of the loop can send (``LONGEST_FIXED_REPLY`` with a
+        checksum, after the echo of a ``sent_len`` frame with EE1), plus the turnaround: a
+        reply that has not begun by then belongs to no exchange any more (DESIGN invariant 13).
+        """
+        longest = sent_len + LONGEST_FIXED_REPLY + CHECKSUM_CHARS
+        return self.real(self.wire(longest) + self.turnaround)

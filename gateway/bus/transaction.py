@@ -26,6 +26,7 @@ from typing import Any
 from gateway.bus.detect import ensure_framing
 from gateway.bus.eeprom_hold import hold_for_write
 from gateway.bus.exchange import DOUBT, LoopCore, Sent
+from gateway.bus.position_presets import presets_positions, read_backs
 from gateway.bus.requests import CommandResult, Outcome, ReplyKind
 from gateway.bus.retries import Retries
 from gateway.bus.selection import confirm_command, needs_selection, select_command
@@ -95,6 +96,10 @@ class TransactionRunner:
             results.append(result)
             if result.outcome is not Outcome.DONE:
                 failed = result
+        if self.core.link.programs.may_run(self.body):
+            # A running program may select the other motor between two transactions: what
+            # this one read of the selection is not trusted by the next (DESIGN invariant 5).
+            self.core.doubt(self.body)
         return results, self.core.counters.exchanges - first
 
     # ------------------------------------------------------------------ helpers
@@ -186,6 +191,7 @@ class TransactionRunner:
                 if st.retries.after_doubt(command):
                     continue
                 if resendable(command):
+                    await self._positions_after(command)
                     return st.result(sent.kind, Outcome.UNKNOWN, sent.note)
                 return await self._verify(st, sent.kind)
             return await self._finish(st, sent)
@@ -248,7 +254,16 @@ class TransactionRunner:
             outcome, note = Outcome.NOT_DONE, "F answered '>' but the selection stayed"
         if command.reply_format is ReplyFormat.ACK_THEN_DONE:
             outcome = await hold_for_write(self.core, self.body, command, st.mark, st.seen)
+        await self._positions_after(command)
         return st.result(sent.kind, outcome, note, value=sent.value, late=sent.late)
+
+    async def _positions_after(self, command: Command) -> None:
+        """A command that may have set a position without motion (R, E, DL, EP): the
+        positions it may have changed are read back now, before anything else is sent (the
+        state cache marked them stale at its '>')."""
+        if presets_positions(command):
+            for query in read_backs(command, self._axis(command)):
+                await self._query(query)
 
     async def _verify(self, st: _Step, kind: ReplyKind, why: str = "reply lost") -> CommandResult:
         """The reply of a command that must not be sent again was lost (or bent): read back."""
