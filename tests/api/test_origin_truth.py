@@ -14,6 +14,7 @@ from typing import Any
 
 import pytest
 
+from gateway.bus.state_types import Origin
 from gateway.service.events import EventKind
 from gateway.sim.control import Controls
 from tests.api.sim_app import Api, json_of, running_app
@@ -165,3 +166,28 @@ async def test_an_idle_controller_reset_is_seen_without_any_request() -> None:
         # The poller's next reading of 0 is read again at once, and the reset is seen.
         await api.until(lambda: api.gateway.state.axis("sim", "1", 1).origin.value == "lost")
         assert any(e.kind is EventKind.ORIGIN for e in api.events[events:])
+
+
+async def test_a_controller_reset_makes_the_selection_unknown_so_motor_2_is_selected_again() -> (
+    None
+):
+    """After a power cycle the controller selects a motor of its own (§16): a setting of motor
+    2 must go out with ``F2`` before it, never on the gateway's selection from before."""
+    async with running_app(("1",)) as api:
+        await api.identified()
+        r = await move(api, "sim.1.2", 3000, "pulse")
+        assert r.status_code == 200, r.text  # type: ignore[attr-defined]
+        r = await api.client.post(
+            "/controllers/sim.1/commands", params={"motor": 2}, json={"command": "OH"}
+        )
+        assert r.status_code == 200, r.text
+        assert api.gateway.state.controller("sim", "1").selection_confirmed  # motor 2, known
+        Controls(api.sim).power_cycle("1")
+        await api.until(lambda: api.gateway.state.axis("sim", "1", 2).origin == Origin.LOST)
+        mark = api.mark()
+        r = await api.client.post(
+            "/controllers/sim.1/commands", params={"motor": 2}, json={"command": "OH"}
+        )
+        assert r.status_code == 200, r.text
+        heard = api.heard("1", mark)
+        assert "F2" in heard and heard.index("F2") < heard.index("OH"), heard
