@@ -11,11 +11,13 @@ import {
   HoldButton,
   LimitBar,
   OpLine,
+  OriginLine,
   Position,
   SensorBadges,
   StateBadges,
   StopButton,
   fmt,
+  homeFirst,
 } from "./widgets.js";
 
 const HOME_METHODS = [
@@ -40,6 +42,8 @@ function MoveForm({ axis }) {
     move(axis.id, position, { relative, unit });
   };
   const unitName = unit === "user" ? axis.unit : "pulses";
+  // Refused by the gateway now (409 "home first"): the button says so instead of trying.
+  const refused = homeFirst(axis, { unit, relative });
   return html`<form class="move" onSubmit=${submit} data-testid="move-form">
     <label>${relative ? "Move by" : "Move to"}
       <input type="number" step="any" inputmode="decimal" value=${value} required data-testid="move-value"
@@ -51,7 +55,9 @@ function MoveForm({ axis }) {
     </select>
     <label class="check"><input type="checkbox" checked=${relative} onChange=${(e) => setRelative(e.currentTarget.checked)}
       data-testid="move-relative" /> relative</label>
-    <button type="submit" class="go" data-testid="move-go" aria-label="move ${axis.name || axis.id}">Move</button>
+    <button type="submit" class="go" data-testid="move-go" aria-label="move ${axis.name || axis.id}" disabled=${!!refused}
+      title=${refused || undefined}>Move</button>
+    ${refused ? html`<p class="refusal" data-testid="move-refused">${refused}</p>` : null}
   </form>`;
 }
 
@@ -73,17 +79,23 @@ const SPEED_FIELDS = [
   ["ox", "OX multiplier", "multiplier", "×"],
 ];
 
+// The speed data is read only while the axis is known to stand: the gateway refuses the read
+// while it moves (409, OC cannot be read then), which would be an error for nothing.
 function SpeedProfile({ axis }) {
-  const [speed, setSpeed] = useState(null);
+  const [read, setRead] = useState(null); // {id, speed}: the data and the axis it is of
   const [edit, setEdit] = useState({});
   const [error, setError] = useState(null);
+  const stopped = axis.moving === false;
+  const speed = read && read.id === axis.id ? read.speed : null;
+  const setSpeed = (s) => setRead({ id: axis.id, speed: s });
   const load = () =>
     get(`/axes/${seg(axis.id)}/speed`)
       .then((s) => (setSpeed(s), setError(null)))
-      .catch((err) => setError(err.message));
+      // 409: it started moving since; read again when it stands, no error.
+      .catch((err) => (err.status === 409 ? setRead(null) : setError(err.message)));
   useEffect(() => {
-    load();
-  }, [axis.id]);
+    if (stopped && !speed) load();
+  }, [axis.id, stopped, !!speed]);
   const save = async (e) => {
     e.preventDefault();
     const body = {};
@@ -97,7 +109,9 @@ function SpeedProfile({ axis }) {
     }
   };
   if (error) return html`<p class="problem">${error}</p>`;
-  if (!speed) return html`<p class="muted">Reading the speed data…</p>`;
+  if (!speed) {
+    return html`<p class="muted" data-testid="speed-wait">${stopped ? "Reading the speed data…" : "The speed data is read when the axis stands (it cannot be read while it moves)."}</p>`;
+  }
   const editable = can("operator");
   return html`<form class="speed" onSubmit=${save}>
     <table>
@@ -116,7 +130,10 @@ function SpeedProfile({ axis }) {
       </tbody>
     </table>
     ${speed.oc_cached ? html`<p class="muted">OC is the last value read (OC cannot be read while moving).</p>` : null}
-    ${editable ? html`<button type="submit">Write speed data</button> <button type="button" onClick=${load}>Read again</button>` : null}
+    ${editable
+      ? html`<button type="submit">Write speed data</button>
+          <button type="button" onClick=${load} disabled=${!stopped} title=${stopped ? undefined : "not while the axis moves"}>Read again</button>`
+      : null}
   </form>`;
 }
 
@@ -124,6 +141,7 @@ export function AxisPage({ id }) {
   const axis = store.axes.get(id) || [...store.axes.values()].find((a) => a.name === id);
   if (!axis) return html`<p class="muted">No axis ${id} (yet).</p>`;
   const current = isCurrent(axis);
+  const refusedAll = homeFirst(axis); // jogs and steps (moves in pulses, relative)
   return html`<div class="axispage ${current ? "" : "grey"}" data-axis=${axis.id} data-testid="axis-page">
     <header class="axishead">
       <a href="#/">← cell</a>
@@ -134,6 +152,7 @@ export function AxisPage({ id }) {
     <div class="axisgrid">
       <div class="readout">
         <${Position} axis=${axis} />
+        <${OriginLine} axis=${axis} />
         <${LimitBar} axis=${axis} />
         <${Errors} axis=${axis} />
         <div class="sensors">
@@ -152,9 +171,12 @@ export function AxisPage({ id }) {
               <${HoldButton} axisId=${axis.id} direction="cw" speed="high">high ▶▶<//>
             </div>
             <div class="steprow">
-              <button onClick=${() => step(axis.id, "ccw")} aria-label="step ${axis.name || axis.id} ccw 1 pulse">− 1 pulse</button>
-              <button onClick=${() => step(axis.id, "cw")} aria-label="step ${axis.name || axis.id} cw 1 pulse">+ 1 pulse</button>
+              <button onClick=${() => step(axis.id, "ccw")} aria-label="step ${axis.name || axis.id} ccw 1 pulse"
+                disabled=${!!refusedAll} title=${refusedAll || undefined}>− 1 pulse</button>
+              <button onClick=${() => step(axis.id, "cw")} aria-label="step ${axis.name || axis.id} cw 1 pulse"
+                disabled=${!!refusedAll} title=${refusedAll || undefined}>+ 1 pulse</button>
             </div>
+            ${refusedAll ? html`<p class="refusal" data-testid="home-first">${refusedAll}; Home below is available.</p>` : null}
             <${HomeForm} axis=${axis} />
           </div>`
         : html`<p class="muted">Viewer: motion controls are for operators.</p>`}

@@ -8,6 +8,7 @@ import {
   applyAxisRead,
   applyChange,
   applyOperation,
+  applyOrigin,
   applyProgramOutput,
   applySnapshot,
   notify,
@@ -106,6 +107,7 @@ function handle(message) {
     case "event":
       if (message.kind === "operation") applyOperation(message.data);
       else if (message.kind === "program_output") applyProgramOutput(message.data, message.time);
+      else if (message.kind === "origin") applyOrigin(message.data, message.time);
       break;
     case "error":
       store.ws.error = message.detail;

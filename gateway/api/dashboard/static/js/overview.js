@@ -5,7 +5,19 @@ import { Component, html } from "../vendor/preact-htm/standalone.module.js";
 import { stopController, stopLoop } from "./actions.js";
 import { PositionPlot } from "./plot.js";
 import { axesOf, can, isCurrent, loopDown, store } from "./store.js";
-import { Badge, Errors, HoldButton, LimitBar, OpLine, Position, StateBadges, StopButton, clock } from "./widgets.js";
+import {
+  Badge,
+  Errors,
+  HoldButton,
+  LimitBar,
+  OpLine,
+  OriginLine,
+  Position,
+  StateBadges,
+  StopButton,
+  clock,
+  latchName,
+} from "./widgets.js";
 
 const PROGRAM = { 1: "running", 0: "ended", P: "paused", E: "error" };
 const MODE = { 0: "pulse", 1: "encoder", 2: "servo" };
@@ -73,7 +85,7 @@ function ControllerHeadBody({ ctl }) {
       <span>${ctl.version ? `V ${ctl.version}` : ""}</span>
       <span>program ${ctl.program == null ? "?" : PROGRAM[ctl.program] || ctl.program}</span>
       ${ctl.communication_error ? html`<span class="err">COMM</span>` : null}
-      ${ctl.latched.map((l) => html`<span class="err" title="since ${clock(l.first)} (${l.count}×, ${l.source})">${l.kind}</span>`)}
+      ${ctl.latched.map((l) => html`<span class="err" data-testid="latched-${l.kind}" title="${l.kind} since ${clock(l.first)} (${l.count}×, ${l.source})">${latchName(l.kind)}</span>`)}
     </div>
     ${can("operator")
       ? html`<button class="stop ctlstop" data-testid="stop-controller-${ctl.id}" onClick=${() => stopController(ctl.id)}
@@ -88,6 +100,7 @@ function cardKey(axis) {
   return [
     axis,
     store.ops.get(axis.id),
+    store.origins.get(axis.id),
     isCurrent(axis),
     store.session?.role,
     Math.floor(Date.now() / 1000), // the reading's age
@@ -101,7 +114,7 @@ function cardKey(axis) {
 function coarseKey(axis) {
   const op = store.ops.get(axis.id);
   const errors = Object.keys(axis.errors || {}).filter((k) => axis.errors[k]).join();
-  return [isCurrent(axis), axis.moving, axis.stale, errors, op?.id, op?.state, store.session?.role];
+  return [isCurrent(axis), axis.moving, axis.stale, axis.origin, errors, op?.id, op?.state, store.session?.role];
 }
 
 const OUT_OF_VIEW_REFRESH_MS = 2000;
@@ -167,6 +180,7 @@ function AxisCardBody({ axis }) {
       <${StateBadges} axis=${axis} />
     </header>
     <${Position} axis=${axis} />
+    <${OriginLine} axis=${axis} />
     <${LimitBar} axis=${axis} />
     <${Errors} axis=${axis} />
     <${PositionPlot} axisId=${axis.id} height=${80} every=${200} />

@@ -20,6 +20,7 @@ export const store = {
   history: new Map(), // axis id -> {t: [], v: []} (seconds since epoch, user unit)
   rates: new Map(), // loop name -> {utilisation, retriesPerMin, timeoutsPerMin}
   consoles: new Map(), // controller id -> [{time, text}]
+  origins: new Map(), // axis id -> its latest origin event's data ({origin, homed, cause, time})
   toasts: [],
 };
 
@@ -92,7 +93,10 @@ export function applyAxisRead(axis) {
 
 function setAxis(axis, time) {
   store.axes.set(axis.id, axis);
-  if (axis.position_user == null && axis.position == null) return;
+  // The plot is in the user unit: while the origin is lost that is unknown (position_user
+  // null), and pulses drawn on a millimetre scale would be a jump that never happened.
+  const pulseUnit = axis.unit === "pulse" || axis.unit === "pulses";
+  if (axis.position_user == null && (axis.position == null || !pulseUnit)) return;
   let h = store.history.get(axis.id);
   if (!h) {
     h = { t: [], v: [] };
@@ -117,6 +121,15 @@ export function applyOperation(op) {
   if (current && current.id === op.id && current.updated > op.updated) return;
   if (current && current.id !== op.id && current.created > op.created) return;
   store.ops.set(op.axis, op);
+}
+
+// The origin found or lost (a controller reset): kept per axis for the cause, which the axis
+// view does not carry, and said at once.
+export function applyOrigin(data, time) {
+  store.origins.set(data.axis, { ...data, time });
+  const name = store.axes.get(data.axis)?.name || data.axis;
+  if (data.origin === "lost") toast(`${name}: origin lost — home first (${data.cause || "controller reset"})`, "error", 20000);
+  else if (data.origin === "homed") toast(`${name}: homed${data.cause ? ` (${data.cause})` : ""}`, "ok");
 }
 
 // Output with a body number belongs to its controller; `/CO` text carries none (§12 /CO),

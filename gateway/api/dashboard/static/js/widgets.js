@@ -46,15 +46,65 @@ export function Badge({ kind, children, title }) {
   return html`<span class="badge ${kind}" title=${title}>${children}</span>`;
 }
 
+// The readout says what the gateway knows, never more: a position never read is "—" (not 0);
+// while the origin is lost the user unit is unknown (the view's position_user is null), so the
+// pulses are the number shown; a counter that wrapped below 0 (EP0) shows the negative position
+// it is, with the controller's raw 24-bit counter beside it.
 export function Position({ axis, big = true }) {
-  const digits = digitsOf(axis.unit);
+  const pulseUnit = axis.unit === "pulse" || axis.unit === "pulses";
+  const userKnown = axis.position_user != null;
+  const neverRead = axis.position == null && !userKnown;
+  const shownInPulses = !userKnown && axis.position != null;
+  const digits = shownInPulses ? 0 : digitsOf(axis.unit);
+  const wrapped = axis.counter != null && axis.position != null && axis.counter !== axis.position;
   return html`<div class="pos ${big ? "big" : ""}">
-    <span class="digits" data-testid="position">${fmt(axis.position_user ?? axis.position, digits)}</span>
-    <span class="unit">${axis.unit}</span>
+    <span class="digits" data-testid="position">${fmt(userKnown ? axis.position_user : axis.position, digits)}</span>
+    <span class="unit">${shownInPulses ? "pulses" : axis.unit}</span>
   </div>
   <div class="pulses">
-    <span data-testid="pulses">${fmt(axis.position, 0)}</span> pulses
+    ${neverRead
+      ? html`<span class="unread" data-testid="position-note" title="the gateway has not read this axis's position yet">not read yet</span>`
+      : html`<span data-testid="pulses">${fmt(axis.position, 0)}</span> pulses`}
+    ${shownInPulses && !pulseUnit
+      ? html` · <span class="unknownuser" data-testid="user-unknown" title="the origin is lost: ${axis.unit} from an origin that is gone are not known">${axis.unit} unknown until homed</span>`
+      : null}
+    ${wrapped
+      ? html` · <span class="counter" data-testid="counter"
+          title="the controller's raw 24-bit counter; it wrapped below 0, and the position follows it through the wrap">counter ${fmt(axis.counter, 0)}</span>`
+      : null}
   </div>`;
+}
+
+// What the gateway knows of the origin: homed (a quiet ok), unknown (no origin search seen
+// since the gateway started: moves pass, so only a quiet note), lost (a controller reset was
+// seen: moves that need the origin are refused until homed). The cause is the origin event's,
+// when the page saw it; the view itself carries none.
+export function OriginLine({ axis }) {
+  if (axis.origin === "homed") {
+    return html`<div class="origin homed" data-testid="origin" title="an origin search ended and no controller reset since">homed</div>`;
+  }
+  if (axis.origin === "lost") {
+    const seen = store.origins.get(axis.id);
+    const cause = seen && seen.origin === "lost" && seen.cause ? seen.cause : "a controller reset was seen";
+    return html`<div class="origin lost" role="alert" data-testid="origin">
+      <strong>origin lost — home first</strong> <span class="why" data-testid="origin-cause">${cause}</span>
+    </div>`;
+  }
+  return html`<div class="origin unknown" data-testid="origin" title="no origin search seen since the gateway started; moves are not refused">origin unknown</div>`;
+}
+
+// Why the gateway would refuse a move now (409 "home first"), or null: while the origin is
+// lost every move of an axis with soft limits is refused, and an absolute move in the user
+// unit of any axis (docs/api-notes.md "While the origin is lost"). Homing and stops pass.
+export function homeFirst(axis, { unit = "pulse", relative = true } = {}) {
+  if (axis.origin !== "lost") return null;
+  if (axis.soft_min != null || axis.soft_max != null) {
+    return "home first: the origin is lost, and moves of an axis with soft limits wait for a home";
+  }
+  if (unit === "user" && !relative) {
+    return `home first: the origin is lost, and absolute moves in ${axis.unit} wait for a home`;
+  }
+  return null;
 }
 
 export function StateBadges({ axis }) {
@@ -65,8 +115,15 @@ export function StateBadges({ axis }) {
       ? null
       : axis.moving
         ? html`<${Badge} kind="moving">MOVING<//>`
-        : html`<${Badge} kind="idle">STOPPED<//>`}
-    ${axis.stale ? html`<${Badge} kind="stale" title="no fresh reading: the value is old">STALE<//>` : null}
+        : axis.moving === false
+          ? html`<${Badge} kind="idle">STOPPED<//>`
+          : null}
+    ${axis.moving == null
+      ? html`<span data-testid="moving-unknown"><${Badge} kind="unknown" title="not read yet, or the controller says a motor moves but not which">MOTION UNKNOWN<//></span>`
+      : null}
+    ${axis.stale
+      ? html`<${Badge} kind="stale" title=${axis.position == null ? "not read yet" : "no fresh reading: the value is old"}>STALE<//>`
+      : null}
     ${!current && !axis.stale ? html`<${Badge} kind="stale">NOT CURRENT<//>` : null}
     <span class="age" data-testid="age" title="last reading at ${clock(axis.updated)}">${age(axis.updated)}</span>
     ${op && op.target_user != null && !["done", "failed", "unknown"].includes(op.state)
@@ -137,6 +194,19 @@ export function SensorBadges({ axis }) {
   });
 }
 
+// A controller's latched errors as people say them (the view's kinds are identifiers).
+const LATCH_NAMES = {
+  limit_error: "limit error",
+  emergency_stop: "emergency stop",
+  command_error: "command error",
+  communication_error: "communication error",
+  program_error: "program error",
+};
+
+export function latchName(kind) {
+  return LATCH_NAMES[kind] || String(kind).replaceAll("_", " ");
+}
+
 const ERROR_NAMES = { limit: "LIMIT", emergency: "EMS", command: "COMMAND", step_out: "STEP-OUT" };
 
 export function Errors({ axis }) {
@@ -186,6 +256,7 @@ export function StopButton({ axisId, label = "STOP", cls = "" }) {
 // stops too: a finger that wanders never leaves a jog running.
 export function HoldButton({ axisId, direction, speed = "low", children }) {
   if (!can("operator")) return null;
+  const refused = homeFirst(store.axes.get(axisId) || {});
   const start = (e) => {
     e.preventDefault();
     e.currentTarget.focus();
@@ -204,6 +275,9 @@ export function HoldButton({ axisId, direction, speed = "low", children }) {
     }
   };
   const name = `jog ${axisName(axisId)} ${direction} ${speed} speed`;
+  if (refused) {
+    return html`<button class="jog" data-testid="jog-${direction}" disabled aria-label=${name} title=${refused}>${children}</button>`;
+  }
   return html`<button class="jog" data-testid="jog-${direction}" onPointerDown=${start} onPointerUp=${holdEnd}
     onPointerCancel=${holdEnd} onPointerLeave=${holdEnd} onKeyDown=${key} onKeyUp=${keyUp}
     onContextMenu=${(e) => e.preventDefault()} aria-label=${name} title="hold to ${name}">${children}</button>`;
