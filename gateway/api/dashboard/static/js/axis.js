@@ -79,13 +79,15 @@ const SPEED_FIELDS = [
   ["ox", "OX multiplier", "multiplier", "×"],
 ];
 
-// The speed data is read only while the axis is known to stand: the gateway refuses the read
-// while it moves (409, OC cannot be read then), which would be an error for nothing.
+// The speed data is read only while the controller's motors are known to stand: the gateway
+// refuses the read while either moves (409: OC cannot be read, and the other motor cannot be
+// selected, §10 F), which would be an error for nothing.
 function SpeedProfile({ axis }) {
   const [read, setRead] = useState(null); // {id, speed}: the data and the axis it is of
   const [edit, setEdit] = useState({});
   const [error, setError] = useState(null);
-  const stopped = axis.moving === false;
+  const ctl = store.controllers.get(axis.controller);
+  const stopped = axis.moving === false && ctl?.moving === false;
   const speed = read && read.id === axis.id ? read.speed : null;
   const setSpeed = (s) => setRead({ id: axis.id, speed: s });
   const load = () =>
@@ -110,7 +112,7 @@ function SpeedProfile({ axis }) {
   };
   if (error) return html`<p class="problem">${error}</p>`;
   if (!speed) {
-    return html`<p class="muted" data-testid="speed-wait">${stopped ? "Reading the speed data…" : "The speed data is read when the axis stands (it cannot be read while it moves)."}</p>`;
+    return html`<p class="muted" data-testid="speed-wait">${stopped ? "Reading the speed data…" : "The speed data is read when the controller's motors stand (not while one moves)."}</p>`;
   }
   const editable = can("operator");
   return html`<form class="speed" onSubmit=${save}>
@@ -132,7 +134,7 @@ function SpeedProfile({ axis }) {
     ${speed.oc_cached ? html`<p class="muted">OC is the last value read (OC cannot be read while moving).</p>` : null}
     ${editable
       ? html`<button type="submit">Write speed data</button>
-          <button type="button" onClick=${load} disabled=${!stopped} title=${stopped ? undefined : "not while the axis moves"}>Read again</button>`
+          <button type="button" onClick=${load} disabled=${!stopped} title=${stopped ? undefined : "not while a motor of the controller moves"}>Read again</button>`
       : null}
   </form>`;
 }
