@@ -146,9 +146,10 @@ def test_a_lost_origin_says_home_first_with_its_cause_until_homed(
             page.goto(cell.url + "/#/axis/x")
             axis = page.get_by_test_id("axis-page")
             expect(axis.get_by_test_id("origin")).to_contain_text("origin lost — home first")
-            expect(axis.get_by_test_id("move-go")).to_be_disabled()
-            expect(axis.get_by_test_id("move-refused")).to_contain_text("home first")
             expect(axis.get_by_test_id("home-first")).to_contain_text("home first")
+            move = axis.get_by_test_id("move-go")
+            expect(move).to_be_disabled()
+            expect(move).to_have_attribute("title", re.compile("^home first"))
             expect(axis.get_by_role("button", name="step x cw 1 pulse")).to_be_disabled()
             home = axis.get_by_role("button", name="home x")
             expect(home).to_be_enabled()
@@ -167,7 +168,7 @@ def test_a_lost_origin_says_home_first_with_its_cause_until_homed(
         expect(axis.get_by_test_id("origin")).to_have_text("homed", timeout=30_000)
         expect(page.locator(".toast", has_text="x: homed")).to_be_visible()
         expect(axis.get_by_test_id("move-go")).to_be_enabled()
-        expect(axis.get_by_test_id("move-refused")).to_have_count(0)
+        expect(axis.get_by_test_id("home-first")).to_have_count(0)
         expect(axis.get_by_test_id("user-unknown")).to_have_count(0)
         expect(axis.get_by_test_id("position")).to_have_text(re.compile(r"^-?\d+\.\d{3}$"))
     finally:
@@ -221,11 +222,13 @@ def test_latched_errors_show_by_name(cell: Gateway, session: Session) -> None:
     live(cell, page)
     head = page.get_by_test_id("controller-sim.2").locator(".ctlhead")
     cell.line.call("ems", body="2", pressed=True)
-    expect(head.get_by_test_id("latched-emergency_stop")).to_have_text("emergency stop")
-    expect(head).not_to_contain_text("emergency_stop")
-    cell.line.call("ems", body="2", pressed=False)
-    api(cell, "POST", "/axes/u/errors/ack", {})
-    api(cell, "POST", "/axes/v/errors/ack", {})
+    try:
+        expect(head.get_by_test_id("latched-emergency_stop")).to_have_text("emergency stop")
+        expect(head).not_to_contain_text("emergency_stop")
+    finally:
+        cell.line.call("ems", body="2", pressed=False)
+        api(cell, "POST", "/axes/u/errors/ack", {})
+        api(cell, "POST", "/axes/v/errors/ack", {})
     expect(head.get_by_test_id("latched-emergency_stop")).to_have_count(0)
 
 
@@ -242,3 +245,27 @@ def test_the_speed_profile_waits_while_a_motor_of_the_controller_moves(
     api(cell, "POST", "/axes/u/stop", {"mode": "decelerate"})
     expect(page.locator("form.speed")).to_contain_text("pps")
     assert session.errors == [], session.errors
+
+
+def test_without_soft_limits_only_absolute_moves_in_the_user_unit_wait_for_a_home(
+    cell: Gateway, session: Session
+) -> None:
+    assert cell.line is not None
+    page = session.page
+    live(cell, page, "/#/axis/u")
+    axis = page.get_by_test_id("axis-page")
+    expect(axis.get_by_test_id("pulses")).not_to_have_text("0")  # off 0: a reset shows
+    cell.line.call("power_cycle", body="2")
+    expect(axis.get_by_test_id("origin")).to_contain_text("origin lost — home first")
+    move = axis.get_by_test_id("move-go")
+    # an absolute move in mm is refused (409 home first); in pulses, or relative, it passes
+    expect(move).to_be_disabled()
+    expect(axis.get_by_test_id("move-refused")).to_contain_text("absolute moves in mm")
+    axis.get_by_test_id("move-relative").check()
+    expect(move).to_be_enabled()
+    expect(axis.get_by_test_id("move-refused")).to_have_count(0)
+    axis.get_by_test_id("move-relative").uncheck()
+    axis.get_by_test_id("move-unit").select_option("pulse")
+    expect(move).to_be_enabled()
+    expect(axis.get_by_role("button", name="step u cw 1 pulse")).to_be_enabled()
+    expect(axis.get_by_test_id("home-first")).to_have_count(0)

@@ -57,7 +57,7 @@ function MoveForm({ axis }) {
       data-testid="move-relative" /> relative</label>
     <button type="submit" class="go" data-testid="move-go" aria-label="move ${axis.name || axis.id}" disabled=${!!refused}
       title=${refused || undefined}>Move</button>
-    ${refused ? html`<p class="refusal" data-testid="move-refused">${refused}</p>` : null}
+    ${refused && !homeFirst(axis) ? html`<p class="refusal" data-testid="move-refused">${refused}</p>` : null}
   </form>`;
 }
 
@@ -165,6 +165,7 @@ export function AxisPage({ id }) {
       ${can("operator")
         ? html`<div class="motion">
             <${StopButton} axisId=${axis.id} cls="huge" />
+            ${refusedAll ? html`<p class="refusal" data-testid="home-first">${refusedAll}: Move, jog and step are off; Home (below) is available.</p>` : null}
             <${MoveForm} axis=${axis} />
             <div class="jogrow">
               <${HoldButton} axisId=${axis.id} direction="ccw">◀ jog low<//>
@@ -178,7 +179,6 @@ export function AxisPage({ id }) {
               <button onClick=${() => step(axis.id, "cw")} aria-label="step ${axis.name || axis.id} cw 1 pulse"
                 disabled=${!!refusedAll} title=${refusedAll || undefined}>+ 1 pulse</button>
             </div>
-            ${refusedAll ? html`<p class="refusal" data-testid="home-first">${refusedAll}; Home below is available.</p>` : null}
             <${HomeForm} axis=${axis} />
           </div>`
         : html`<p class="muted">Viewer: motion controls are for operators.</p>`}

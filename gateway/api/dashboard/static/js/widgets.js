@@ -64,12 +64,14 @@ export function Position({ axis, big = true }) {
   <div class="pulses">
     ${neverRead
       ? html`<span class="unread" data-testid="position-note" title="the gateway has not read this axis's position yet">not read yet</span>`
-      : html`<span data-testid="pulses">${fmt(axis.position, 0)}</span> pulses`}
+      : shownInPulses
+        ? null
+        : html`<span data-testid="pulses">${fmt(axis.position, 0)}</span> pulses`}
     ${shownInPulses && !pulseUnit
-      ? html` · <span class="unknownuser" data-testid="user-unknown" title="the origin is lost: ${axis.unit} from an origin that is gone are not known">${axis.unit} unknown until homed</span>`
+      ? html`<span class="unknownuser" data-testid="user-unknown" title="the origin is lost: ${axis.unit} from an origin that is gone are not known">${axis.unit} unknown until homed</span>`
       : null}
     ${wrapped
-      ? html` · <span class="counter" data-testid="counter"
+      ? html`${shownInPulses && pulseUnit ? "" : " · "}<span class="counter" data-testid="counter"
           title="the controller's raw 24-bit counter; it wrapped below 0, and the position follows it through the wrap">counter ${fmt(axis.counter, 0)}</span>`
       : null}
   </div>`;
