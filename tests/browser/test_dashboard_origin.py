@@ -116,7 +116,8 @@ def test_a_lost_origin_says_home_first_with_its_cause_until_homed(
     assert cell.line is not None
     # x stands off 0 (a move in pulses passes while the origin is only unknown), so the
     # reset shows as a counter that went to 0 by itself.
-    moved = api(cell, "POST", "/axes/x/move?wait=true&timeout=30", {"position": 2000, "unit": "pulse"})
+    body = {"position": 2000, "unit": "pulse"}
+    moved = api(cell, "POST", "/axes/x/move?wait=true&timeout=30", body)
     assert moved["state"] == "done", moved
     for width, height in ((1280, 800), (390, 844)):
         opened = open_page(browser, width, height)
@@ -133,7 +134,8 @@ def test_a_lost_origin_says_home_first_with_its_cause_until_homed(
                 # the cause is the feed's origin event's, in the toast and on the card
                 toast = page.locator(".toast", has_text="x: origin lost — home first")
                 expect(toast).to_contain_text("the controller was reset")
-                expect(card.get_by_test_id("origin-cause")).to_contain_text("the controller was reset")
+                cause = card.get_by_test_id("origin-cause")
+                expect(cause).to_contain_text("the controller was reset")
             # the gateway would refuse these (409 home first): disabled, the reason on them
             for direction in ("ccw", "cw"):
                 jog = card.get_by_test_id(f"jog-{direction}")
