@@ -1,0 +1,129 @@
+// One OPC UA session of node-opcua's client, driven by a scenario (JSON, argv[2]):
+//   {"endpoint": "opc.tcp://...", "policy": "None" | "Basic256Sha256" | "Aes256Sha256RsaPss",
+//    "mode": "None" | "Sign" | "SignAndEncrypt", "user": "...", "password": "...",
+//    "pki": "<a folder for the client's certificate>", "steps": [...]}
+// Steps: {"op": "browse", "node"}, {"op": "read", "node"}, {"op": "call", "object",
+// "method", "args": [["Double", 5], ["String", "user"]]}, {"op": "monitor", "name", "node"},
+// {"op": "await", "name", "value", "timeout"} (until the item reports `value`).
+// Prints one JSON object: {"connected", "error"?, "results": [...]} (a result per step).
+import {
+  AttributeIds,
+  ClientMonitoredItem,
+  ClientSubscription,
+  DataType,
+  MessageSecurityMode,
+  OPCUAClient,
+  SecurityPolicy,
+  TimestampsToReturn,
+  UserTokenType,
+} from "node-opcua-client";
+import { OPCUACertificateManager } from "node-opcua-certificate-manager";
+
+const scenario = JSON.parse(process.argv[2]);
+const out = { connected: false, results: [] };
+
+function shown(dv) {
+  return {
+    status: dv.statusCode.name,
+    value: dv.value ? dv.value.value : null,
+    sourceTimestamp: dv.sourceTimestamp ? dv.sourceTimestamp.toISOString() : null,
+  };
+}
+
+async function run() {
+  const certificateManager = new OPCUACertificateManager({
+    rootFolder: scenario.pki,
+    automaticallyAcceptUnknownCertificate: true,
+  });
+  const client = OPCUAClient.create({
+    applicationName: "rc233-gateway-tests",
+    applicationUri: "urn:rc233-gateway-tests",
+    securityMode: MessageSecurityMode[scenario.mode || "None"],
+    securityPolicy: SecurityPolicy[scenario.policy || "None"],
+    endpointMustExist: false,
+    clientCertificateManager: certificateManager,
+    connectionStrategy: { maxRetry: 0, initialDelay: 100, maxDelay: 200 },
+    requestedSessionTimeout: 60000,
+  });
+  await client.connect(scenario.endpoint);
+  let session;
+  try {
+    const identity = scenario.user
+      ? { type: UserTokenType.UserName, userName: scenario.user, password: scenario.password }
+      : { type: UserTokenType.Anonymous };
+    session = await client.createSession(identity);
+    out.connected = true;
+    const items = {};
+    let subscription = null;
+    for (const step of scenario.steps || []) {
+      if (step.op === "browse") {
+        const result = await session.browse(step.node);
+        out.results.push({
+          status: result.statusCode.name,
+          names: result.references.map((r) => r.browseName.name),
+          nodes: result.references.map((r) => r.nodeId.toString()),
+        });
+      } else if (step.op === "read") {
+        const dv = await session.read({ nodeId: step.node, attributeId: AttributeIds.Value });
+        out.results.push(shown(dv));
+      } else if (step.op === "call") {
+        const result = await session.call({
+          objectId: step.object,
+          methodId: step.method,
+          inputArguments: (step.args || []).map(([type, value]) => ({
+            dataType: DataType[type],
+            value,
+          })),
+        });
+        out.results.push({
+          status: result.statusCode.name,
+          outputs: (result.outputArguments || []).map((v) => v.value),
+        });
+      } else if (step.op === "monitor") {
+        if (subscription === null) {
+          subscription = ClientSubscription.create(session, {
+            requestedPublishingInterval: 50,
+            requestedLifetimeCount: 600,
+            requestedMaxKeepAliveCount: 20,
+            maxNotificationsPerPublish: 1000,
+            publishingEnabled: true,
+            priority: 10,
+          });
+        }
+        const seen = [];
+        const item = ClientMonitoredItem.create(
+          subscription,
+          { nodeId: step.node, attributeId: AttributeIds.Value },
+          { samplingInterval: 0, discardOldest: true, queueSize: 100 },
+          TimestampsToReturn.Both,
+        );
+        item.on("changed", (dv) => seen.push(shown(dv)));
+        items[step.name] = seen;
+        out.results.push({ status: "Good" });
+      } else if (step.op === "await") {
+        const seen = items[step.name];
+        const until = Date.now() + (step.timeout || 20000);
+        const hit = () => seen.some((s) => s.status === "Good" && s.value === step.value);
+        while (!hit() && Date.now() < until) {
+          await new Promise((resolve) => setTimeout(resolve, 20));
+        }
+        out.results.push({ status: hit() ? "Good" : "Timeout", seen: [...seen] });
+      } else {
+        throw new Error(`unknown step ${step.op}`);
+      }
+    }
+    if (subscription !== null) await subscription.terminate();
+  } finally {
+    if (session) await session.close();
+    await client.disconnect();
+  }
+}
+
+run()
+  .catch((err) => {
+    out.error = String(err && err.message ? err.message : err);
+  })
+  .finally(() => {
+    process.stdout.write(JSON.stringify(out) + "\n");
+    process.exit(0);
+  });
