@@ -20,25 +20,36 @@ INSTALL = (
 SCENARIO_TIMEOUT = 90.0
 
 
-async def run_client(endpoint: str, pki: Path, steps: list[dict[str, Any]], *,
-                     user: str | None = None, password: str | None = None,
-                     policy: str = "None", mode: str = "None") -> dict[str, Any]:  # fmt: skip
+def session(endpoint: str, pki: Path, steps: list[dict[str, Any]], *,
+            user: str | None = None, password: str | None = None,
+            policy: str = "None", mode: str = "None") -> dict[str, Any]:  # fmt: skip
+    """One session's scenario: its login, security and steps."""
+    return {"endpoint": endpoint, "pki": str(pki), "policy": policy, "mode": mode,
+            "user": user, "password": password, "steps": steps}  # fmt: skip
+
+
+async def run_client(endpoint: str, pki: Path, steps: list[dict[str, Any]],
+                     **login: Any) -> dict[str, Any]:  # fmt: skip
     """Run ``steps`` in one session; ``{"connected", "results", "error"?}``."""
+    answers = await run_sessions([session(endpoint, pki, steps, **login)])
+    return answers[0]
+
+
+async def run_sessions(sessions: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Run ``sessions`` one after the other in one client process; their answers."""
     node = shutil.which("node")
     assert node is not None and (CLIENT_DIR / "node_modules" / "node-opcua-client").is_dir(), (
         INSTALL
     )
-    scenario = {"endpoint": endpoint, "pki": str(pki), "policy": policy, "mode": mode,
-                "user": user, "password": password, "steps": steps}  # fmt: skip
     process = await asyncio.create_subprocess_exec(
-        node, str(CLIENT_DIR / "client.mjs"), json.dumps(scenario),
+        node, str(CLIENT_DIR / "client.mjs"), json.dumps(sessions),
         stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.PIPE, cwd=str(CLIENT_DIR),
     )  # fmt: skip
     out, err = await asyncio.wait_for(process.communicate(), SCENARIO_TIMEOUT)
     lines = out.decode().strip().splitlines()
     assert lines, f"the client said nothing; stderr: {err.decode()[-2000:]}"
-    answer: dict[str, Any] = json.loads(lines[-1])
-    return answer
+    answers: list[dict[str, Any]] = json.loads(lines[-1])
+    return answers
 
 
 def node(ident: str) -> str:

@@ -35,6 +35,7 @@ audit_log = "{workdir / "audit.jsonl"}"
 [[loops]]
 name = "main"
 port = "/dev/null"
+poll = {{ idle_period = 1.0 }}  # the key switch read each second: local control seen soon
 
 [[loops.controllers]]
 body = "1"

@@ -9,7 +9,7 @@ from typing import Any
 
 import pytest
 
-from tests.opcua.client import call, node, run_client
+from tests.opcua.client import call, node, run_client, run_sessions, session
 from tests.opcua.conftest import OPERATOR, VIEWER, Cell
 
 pytestmark = pytest.mark.asyncio(loop_scope="module")
@@ -43,8 +43,9 @@ async def test_browse_names_from_the_configuration_and_values_with_their_source_
     assert r[1]["names"] == ["main"]
     assert r[2]["names"] == ["lift", "press"]
     assert r[3]["names"] == ["z", "main.1.2"]  # an axis without a name: its id
+    names = set(r[4]["names"])
     assert {"ActualPosition", "ActualPositionPulses", "TargetPosition", "Moving", "Stale",
-            "LimitError", "EmergencyError", "CommandError", "StepOutError"} <= set(r[4]["names"])  # fmt: skip
+            "LimitError", "EmergencyError", "CommandError", "StepOutError"} <= names  # fmt: skip
     assert {"EngineeringUnits", "EURange"} <= set(r[5]["names"])
     position = r[6]
     assert position["status"] == "Good" and position["value"] == 0
@@ -93,40 +94,46 @@ async def test_a_move_s_positions_arrive_and_each_method_answers(cell: Cell) -> 
     assert loop_stop == {"status": "Good", "outputs": ["done"]}
 
 
-async def test_a_viewer_reads_but_calls_nothing(cell: Cell) -> None:
-    answer = await run_client(cell.endpoint, cell.pki, [
-        {"op": "read", "node": node("main.1.1/ActualPosition")},
-        call("main.1.1", "MoveAbsolute", ("Double", 1), ("String", "user")),
-        call("main.1.1", "Stop", ("String", "")),
-        call("loop:main", "Stop", ("String", "")),
-    ], user=VIEWER[0], password=VIEWER[1])  # fmt: skip
-    read, move, stop, loop_stop = answer["results"]
+async def test_a_viewer_reads_but_calls_nothing_and_bad_logins_are_refused(
+    cell: Cell,
+) -> None:
+    viewer, anonymous, wrong, other = await run_sessions([
+        session(cell.endpoint, cell.pki, [
+            {"op": "read", "node": node("main.1.1/ActualPosition")},
+            call("main.1.1", "MoveAbsolute", ("Double", 1), ("String", "user")),
+            call("main.1.1", "Stop", ("String", "")),
+            call("loop:main", "Stop", ("String", "")),
+        ], user=VIEWER[0], password=VIEWER[1]),
+        session(cell.endpoint, cell.pki, []),
+        session(cell.endpoint, cell.pki, [], user=OPERATOR[0], password="nope"),
+        # a token under another token's name
+        session(cell.endpoint, cell.pki, [], user=VIEWER[0], password=OPERATOR[1]),
+    ])  # fmt: skip
+    read, move, stop, loop_stop = viewer["results"]
     assert read["status"] == "Good"
     assert move["status"] == stop["status"] == loop_stop["status"] == "BadUserAccessDenied"
-
-
-async def test_anonymous_and_a_wrong_token_are_refused(cell: Cell) -> None:
-    anonymous = await run_client(cell.endpoint, cell.pki, [])
     assert not anonymous["connected"]
     assert "anonymous" in anonymous["error"].lower()
-    wrong = await run_client(cell.endpoint, cell.pki, [], user=OPERATOR[0], password="nope")
-    assert not wrong["connected"]
-    assert "BadUserAccessDenied" in wrong["error"] or "denied" in wrong["error"].lower()
-    other = await run_client(cell.endpoint, cell.pki, [], user=VIEWER[0], password=OPERATOR[1])
-    assert not other["connected"]  # a token under another token's name
+    assert not wrong["connected"] and "denied" in wrong["error"].lower(), wrong
+    assert not other["connected"]
 
 
-@pytest.mark.parametrize(
-    ("policy", "mode"),
-    [("Basic256Sha256", "SignAndEncrypt"), ("Aes256_Sha256_RsaPss", "Sign")],
-)
-async def test_signed_and_encrypted_sessions(cell: Cell, policy: str, mode: str) -> None:
-    r = await _as_operator(cell, [
-        {"op": "read", "node": node("main.1/Online")},
-        call("main.1.1", "AcknowledgeErrors"),
-    ], policy=policy, mode=mode)  # fmt: skip
-    assert r[0]["status"] == "Good" and r[0]["value"] is True
-    assert r[1]["status"] == "Good"
+async def test_signed_and_encrypted_sessions(cell: Cell) -> None:
+    steps = [{"op": "read", "node": node("main.1/Online")}, call("main.1.1", "AcknowledgeErrors")]
+    login = {"user": OPERATOR[0], "password": OPERATOR[1]}
+    answers = await run_sessions([
+        session(cell.endpoint, cell.pki, steps, policy="Basic256Sha256", mode="SignAndEncrypt",
+                **login),
+        session(cell.endpoint, cell.pki, steps, policy="Aes256_Sha256_RsaPss", mode="Sign",
+                **login),
+        session(cell.endpoint, cell.pki, steps, policy="Aes256_Sha256_RsaPss",
+                mode="SignAndEncrypt", **login),
+    ])  # fmt: skip
+    for answer in answers:
+        assert answer["connected"], answer
+        online, ack = answer["results"]
+        assert online["status"] == "Good" and online["value"] is True
+        assert ack["status"] == "Good"
     # made at the first start, in the state directory
     assert (cell.workdir / "state" / "opcua" / "server-cert.der").is_file()
 
@@ -148,9 +155,7 @@ async def test_local_control_is_bad_invalid_state_and_stops_still_go(cell: Cell)
 
 
 async def test_every_call_is_audited_refusals_too(cell: Cell) -> None:
-    await run_client(cell.endpoint, cell.pki, [
-        call("main.1.1", "AcknowledgeErrors"),
-    ], user=VIEWER[0], password=VIEWER[1])  # fmt: skip
+    # (after the tests above: their calls)
     lines = (cell.workdir / "audit.jsonl").read_text().splitlines()
     entries = [json.loads(line) for line in lines]
     opcua = [e for e in entries if e["method"] == "OPCUA"]

@@ -6,6 +6,8 @@
 // "method", "args": [["Double", 5], ["String", "user"]]}, {"op": "monitor", "name", "node"},
 // {"op": "await", "name", "value", "timeout"} (until the item reports `value`).
 // Prints one JSON object: {"connected", "error"?, "results": [...]} (a result per step).
+// An array of scenarios runs them one after the other (one process: node-opcua loads once)
+// and prints an array of those objects.
 import {
   AttributeIds,
   ClientMonitoredItem,
@@ -19,8 +21,9 @@ import {
 } from "node-opcua-client";
 import { OPCUACertificateManager } from "node-opcua-certificate-manager";
 
-const scenario = JSON.parse(process.argv[2]);
-const out = { connected: false, results: [] };
+const given = JSON.parse(process.argv[2]);
+const scenarios = Array.isArray(given) ? given : [given];
+let certificateManager = null;
 
 function shown(dv) {
   return {
@@ -30,11 +33,13 @@ function shown(dv) {
   };
 }
 
-async function run() {
-  const certificateManager = new OPCUACertificateManager({
-    rootFolder: scenario.pki,
-    automaticallyAcceptUnknownCertificate: true,
-  });
+async function run(scenario, out) {
+  if (certificateManager === null) {
+    certificateManager = new OPCUACertificateManager({
+      rootFolder: scenario.pki,
+      automaticallyAcceptUnknownCertificate: true,
+    });
+  }
   const client = OPCUAClient.create({
     applicationName: "rc233-gateway-tests",
     applicationUri: "urn:rc233-gateway-tests",
@@ -101,13 +106,15 @@ async function run() {
         items[step.name] = seen;
         out.results.push({ status: "Good" });
       } else if (step.op === "await") {
+        // what the item reported since the last await of it, until `value` came
         const seen = items[step.name];
         const until = Date.now() + (step.timeout || 20000);
         const hit = () => seen.some((s) => s.status === "Good" && s.value === step.value);
         while (!hit() && Date.now() < until) {
           await new Promise((resolve) => setTimeout(resolve, 20));
         }
-        out.results.push({ status: hit() ? "Good" : "Timeout", seen: [...seen] });
+        const reached = hit();
+        out.results.push({ status: reached ? "Good" : "Timeout", seen: seen.splice(0) });
       } else {
         throw new Error(`unknown step ${step.op}`);
       }
@@ -119,11 +126,20 @@ async function run() {
   }
 }
 
-run()
-  .catch((err) => {
-    out.error = String(err && err.message ? err.message : err);
-  })
-  .finally(() => {
-    process.stdout.write(JSON.stringify(out) + "\n");
-    process.exit(0);
-  });
+async function main() {
+  const outs = [];
+  for (const scenario of scenarios) {
+    const out = { connected: false, results: [] };
+    try {
+      await run(scenario, out);
+    } catch (err) {
+      out.error = String(err && err.message ? err.message : err);
+    }
+    outs.push(out);
+  }
+  // exit once written: a pipe takes 64 KiB at a time
+  const text = JSON.stringify(Array.isArray(given) ? outs : outs[0]) + "\n";
+  process.stdout.write(text, () => process.exit(0));
+}
+
+main();
