@@ -348,12 +348,14 @@ async def _serve(
     edge_node = _edge_node(gateway, config, auth, app)
     node_task = asyncio.create_task(edge_node.run()) if edge_node is not None else None
     opcua = _opcua_face(gateway, config, auth, app, store)
+    opcua_started = False
     try:
         if opcua is not None:
             await opcua.start()
+            opcua_started = True
         await server.serve()
     finally:
-        if opcua is not None:
+        if opcua is not None and opcua_started:
             await opcua.stop()
         if node_task is not None and edge_node is not None:
             node_task.cancel()

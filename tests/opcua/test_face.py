@@ -154,6 +154,31 @@ async def test_local_control_is_bad_invalid_state_and_stops_still_go(cell: Cell)
     assert r[3]["status"] == "Good"  # a stop is never refused
 
 
+async def test_a_silent_controller_is_bad_no_communication(cell: Cell) -> None:
+    position = node("main.2.1/ActualPosition")
+    ready = await _as_operator(cell, [{"op": "read", "node": position}])
+    assert ready[0]["status"] == "Good"
+    await cell.control(op="power", body="2", on=False)
+    try:
+        r = await _as_operator(cell, [
+            {"op": "monitor", "name": "p", "node": position},
+            {"op": "monitor", "name": "online", "node": node("main.2/Online")},
+            {"op": "await", "name": "p", "status": "BadNoCommunication", "timeout": 30000},
+            {"op": "await", "name": "online", "value": False, "timeout": 30000},
+            {"op": "read", "node": position},
+            call("main.2.1", "MoveAbsolute", ("Double", 10), ("String", "pulse")),
+        ])  # fmt: skip
+    finally:
+        await cell.control(op="power", body="2", on=True)
+    silent, offline, read, move = r[2:]
+    assert silent["status"] == "Good", silent
+    assert offline["status"] == "Good", offline
+    # never the last good number: no value, the time of the last reading
+    assert read["status"] == "BadNoCommunication" and read["value"] is None
+    assert read["sourceTimestamp"] is not None
+    assert move["status"] == "BadNoCommunication", move  # offline: nothing sent
+
+
 async def test_every_call_is_audited_refusals_too(cell: Cell) -> None:
     # (after the tests above: their calls)
     lines = (cell.workdir / "audit.jsonl").read_text().splitlines()

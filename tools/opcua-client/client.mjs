@@ -4,7 +4,8 @@
 //    "pki": "<a folder for the client's certificate>", "steps": [...]}
 // Steps: {"op": "browse", "node"}, {"op": "read", "node"}, {"op": "call", "object",
 // "method", "args": [["Double", 5], ["String", "user"]]}, {"op": "monitor", "name", "node"},
-// {"op": "await", "name", "value", "timeout"} (until the item reports `value`).
+// {"op": "await", "name", "value" | "status", "timeout"} (until the item reports `value`,
+// or a value of status `status`).
 // Prints one JSON object: {"connected", "error"?, "results": [...]} (a result per step).
 // An array of scenarios runs them one after the other (one process: node-opcua loads once)
 // and prints an array of those objects.
@@ -109,7 +110,10 @@ async function run(scenario, out) {
         // what the item reported since the last await of it, until `value` came
         const seen = items[step.name];
         const until = Date.now() + (step.timeout || 20000);
-        const hit = () => seen.some((s) => s.status === "Good" && s.value === step.value);
+        // a Good `value`, or (with "status") the first report of that status
+        const hit = step.status
+          ? () => seen.some((s) => s.status === step.status)
+          : () => seen.some((s) => s.status === "Good" && s.value === step.value);
         while (!hit() && Date.now() < until) {
           await new Promise((resolve) => setTimeout(resolve, 20));
         }
