@@ -31,6 +31,9 @@ __all__ = ["OpcUaFace"]
 
 log = logging.getLogger("gateway.opcua")
 
+#: Owners (axes, controllers, loops) written between two yields to the event loop.
+YIELD_EVERY = 16
+
 S = ua.VariantType.String
 D = ua.VariantType.Double
 
@@ -139,12 +142,16 @@ class OpcUaFace:
         while True:
             await self._wake.wait()
             self._wake.clear()
+            written = 0
             while self._dirty:
                 owner = self._dirty.pop()
                 try:
                     await self._write(owner)
                 except Exception:  # one bad value must not end the feed of all the others
                     log.exception("opcua: the values of %s not written", owner)
+                written += 1
+                if written % YIELD_EVERY == 0:  # asyncua's writes need not yield: let the
+                    await asyncio.sleep(0)  # schedulers and the clients' requests in
 
     # ------------------------------------------------------------------ running
 
