@@ -36,6 +36,7 @@ BODIES = "0123456789ABCDE"
 VALUES = ("ActualPosition", "ActualPositionPulses", "TargetPosition", "Moving", "LimitError",
           "EmergencyError", "CommandError")  # fmt: skip
 TOKEN = "bench-operator-token-0123"
+MAX_PER_PUBLISH = int(os.environ.get("MAX_PER_PUBLISH", "0"))
 
 
 def config(workdir: Path, loops: int, port: int) -> str:
@@ -98,7 +99,12 @@ async def _measure(served: Any, port: int, loops: int, target: int,
             axes = [f"l{i}.{b}.{m}" for i in range(loops) for b in BODIES for m in (1, 2)]
             nodes = [client.get_node(f"ns=2;s={a}/{v}") for a in axes for v in VALUES]
             lags = Lags()
-            sub = await client.create_subscription(sampling, lags)
+            params = ua.CreateSubscriptionParameters(
+                RequestedPublishingInterval=sampling, RequestedLifetimeCount=10_000,
+                RequestedMaxKeepAliveCount=100, MaxNotificationsPerPublish=MAX_PER_PUBLISH,
+                PublishingEnabled=True, Priority=0,
+            )  # fmt: skip
+            sub = await client.create_subscription(params, lags)
             for i in range(0, len(nodes), 200):
                 await sub.subscribe_data_change(nodes[i : i + 200], sampling_interval=sampling)
             moving = [a for a in axes if a.endswith(".1")]
