@@ -13,6 +13,9 @@ RUNTIME := $(VENV)/.runtime-$(HASH)
 STAMP   := $(VENV)/.installed-$(HASH)
 NODE_DIR   := tools/asyncapi
 NODE_STAMP := $(NODE_DIR)/node_modules/.installed
+# node-opcua: the independent OPC UA client the tests of the OPC UA face drive
+OPCUA_CLIENT_DIR   := tools/opcua-client
+OPCUA_CLIENT_STAMP := $(OPCUA_CLIENT_DIR)/node_modules/.installed
 
 .PHONY: run test lint typecheck layers unit contract bench clean system-tools
 
@@ -51,6 +54,10 @@ $(NODE_STAMP): $(NODE_DIR)/package.json $(NODE_DIR)/package-lock.json | system-t
 	cd $(NODE_DIR) && npm ci --ignore-scripts --no-audit --no-fund --loglevel=error
 	touch $(NODE_STAMP)
 
+$(OPCUA_CLIENT_STAMP): $(OPCUA_CLIENT_DIR)/package.json $(OPCUA_CLIENT_DIR)/package-lock.json | system-tools
+	cd $(OPCUA_CLIENT_DIR) && npm ci --ignore-scripts --no-audit --no-fund --loglevel=error
+	touch $(OPCUA_CLIENT_STAMP)
+
 run: $(RUNTIME)
 	@echo "dashboard: http://127.0.0.1:8233/   API docs: http://127.0.0.1:8233/api/v1/docs"
 	$(BIN)/rc233-gateway serve --simulate --no-auth --host 127.0.0.1 --port 8233
@@ -65,7 +72,7 @@ layers: $(STAMP)
 	$(BIN)/lint-imports
 
 # The protocol layer is what everything stands on: it must stay >= 95 % covered.
-unit: $(STAMP) $(NODE_STAMP) system-tools
+unit: $(STAMP) $(NODE_STAMP) $(OPCUA_CLIENT_STAMP) system-tools
 	$(BIN)/pytest -m "not contract" --cov --cov-report=term --cov-fail-under=90
 	$(BIN)/coverage report --include='gateway/protocol/*' --fail-under=95 > /dev/null \
 		|| { echo "gateway/protocol/ line coverage is under 95 %"; exit 1; }
@@ -85,9 +92,9 @@ bench: $(STAMP) system-tools
 # The static checks and the contract tests are CPU-bound and short; the suite mostly waits on
 # simulated lines: side by side they take the time of the suite alone on two cores. The
 # benchmarks run last, on their own, so their figures are not taken beside the tests.
-test: $(STAMP) $(NODE_STAMP) system-tools
+test: $(STAMP) $(NODE_STAMP) $(OPCUA_CLIENT_STAMP) system-tools
 	$(MAKE) --no-print-directory -j3 --output-sync=target lint typecheck layers unit contract
 	$(MAKE) --no-print-directory bench
 
 clean:
-	rm -rf $(VENV) $(NODE_DIR)/node_modules .pytest_cache .mypy_cache .ruff_cache .coverage .hypothesis
+	rm -rf $(VENV) $(NODE_DIR)/node_modules $(OPCUA_CLIENT_DIR)/node_modules .pytest_cache .mypy_cache .ruff_cache .coverage .hypothesis

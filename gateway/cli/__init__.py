@@ -69,6 +69,7 @@ def build_parser() -> argparse.ArgumentParser:
     """The argument parser of every subcommand."""
     from gateway.cli.check_config import add_check_config_parser
     from gateway.cli.documents import add_document_parsers
+    from gateway.cli.opcua_cert import add_opcua_cert_parser
     from gateway.cli.serve import add_serve_parser
     from gateway.sim.cli import add_sim_parser
 
@@ -78,6 +79,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_serve_parser(sub)
     add_check_config_parser(sub)
     add_document_parsers(sub)
+    add_opcua_cert_parser(sub)
     add_remote_parsers(sub)
     return parser
 

@@ -10,6 +10,8 @@ site must hold for the values to work, on this machine, as the user running the 
   whether it answers is what ``/readyz`` reports), each line used by one loop only
   (``gateway.cli.port_checks``). A device that does not exist yet is a warning: that loop
   starts down and comes up when it appears (``--strict``: a problem);
+* ``opcua``: the certificate, key and trusted-clients folder it names exist, and someone can
+  log in (a token, or ``anonymous = true``);
 * ``security.tokens``: at least one, unless the API is to run open (``--no-auth``); the
   example file's placeholders are not digests, so they fail the schema.
 
@@ -41,6 +43,7 @@ __all__ = [
     "add_check_config_parser",
     "check_file",
     "check_report",
+    "opcua_problems",
     "site_problems",
 ]
 
@@ -118,10 +121,31 @@ def check_report(
     report.problems[:0] = schema
     if config is not None and not no_auth and not config.security.tokens:
         report.problems.append(NO_TOKENS)
+    if config is not None and config.opcua is not None:
+        report.problems += opcua_problems(config)
     if strict:
         report.problems += report.warnings
         report.warnings = []
     return report
+
+
+def opcua_problems(config: GatewayConfig) -> list[str]:
+    """What the ``[opcua]`` section needs of the site: its files there, a way to log in."""
+    opcua = config.opcua
+    if opcua is None:
+        return []
+    problems = []
+    for key, path in (("certificate", opcua.certificate), ("private_key", opcua.private_key)):
+        if path is not None and not path.is_file():
+            problems.append(f"opcua.{key}: {path} is not a file")
+    if opcua.trusted_clients is not None and not opcua.trusted_clients.is_dir():
+        problems.append(f"opcua.trusted_clients: {opcua.trusted_clients} is not a directory")
+    if not config.security.tokens and not opcua.anonymous:
+        problems.append(
+            "opcua: no token is configured and anonymous = false, so nobody could log in; "
+            "add a token (`rc233-gateway token`) or set anonymous = true (viewers)"
+        )
+    return problems
 
 
 def check_file(

@@ -39,6 +39,7 @@ from gateway.cli.logs import configure_logging
 from gateway.cli.notify import notify
 from gateway.mqtt.commands import DeviceCommands
 from gateway.mqtt.edge_node import EdgeNode
+from gateway.opcua.face import OpcUaFace
 from gateway.protocol.framing import Series
 from gateway.service.config import ConfigError, GatewayConfig
 from gateway.service.runtime.runtime import Runtime
@@ -238,6 +239,21 @@ def _edge_node(
     return EdgeNode(gateway, mqtt, commands=commands)
 
 
+def _opcua_face(
+    gateway: Runtime, config: GatewayConfig, auth: AuthConfig, app: Any, store: StateStore
+) -> OpcUaFace | None:
+    """The OPC UA server of ``[opcua]`` (None without the section): its users are the API's
+    tokens (always, as for MQTT: no-auth mode is for loopback), its calls go to the API's
+    services and audit record; its certificate, when made, is kept in the state directory."""
+    if config.opcua is None:
+        return None
+    print(f"rc233-gateway serve: OPC UA server {config.opcua.endpoint}", flush=True)
+    return OpcUaFace(
+        gateway, config.opcua, axes=app.state.axes, stops=app.state.stops,
+        lookup=auth.book.lookup, audit=app.state.audit.record, state_dir=store.directory,
+    )  # fmt: skip
+
+
 def _configured(args: argparse.Namespace) -> GatewayConfig | None:
     """The ``--config`` file, once ``check-config`` finds no problem in it (None: no file)."""
     if args.config is None:
@@ -334,9 +350,16 @@ async def _serve(
     )
     edge_node = _edge_node(gateway, config, auth, app)
     node_task = asyncio.create_task(edge_node.run()) if edge_node is not None else None
+    opcua = _opcua_face(gateway, config, auth, app, store)
+    opcua_started = False
     try:
+        if opcua is not None:
+            await opcua.start()
+            opcua_started = True
         await server.serve()
     finally:
+        if opcua is not None and opcua_started:
+            await opcua.stop()
         if node_task is not None and edge_node is not None:
             node_task.cancel()
             await asyncio.gather(node_task, return_exceptions=True)

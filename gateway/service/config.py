@@ -45,6 +45,7 @@ __all__ = [
     "LocalInputSettings",
     "LoopSettings",
     "MqttSettings",
+    "OpcUaSettings",
     "PollSettings",
     "SecuritySettings",
     "TimeoutSettings",
@@ -283,6 +284,57 @@ class AuditSettings(_Strict):
     )
 
 
+#: The security policies the OPC UA face offers: a policy and its message security mode.
+OpcUaPolicy = Literal[
+    "None",
+    "Basic256Sha256_Sign",
+    "Basic256Sha256_SignAndEncrypt",
+    "Aes256Sha256RsaPss_Sign",
+    "Aes256Sha256RsaPss_SignAndEncrypt",
+]
+
+
+class OpcUaSettings(_Strict):
+    """The OPC UA server face (gateway/opcua): off unless the section is present.
+
+    Users log in with a token name as user name and the token itself as password (the
+    ``security.tokens`` book and its roles). ``certificate`` and ``private_key`` default to
+    files in the state directory, made at the first start (``rc233-gateway opcua-cert``).
+    """
+
+    endpoint: str = Field(
+        "opc.tcp://0.0.0.0:4840", pattern=r"^opc\.tcp://[^/:\s]+:\d{1,5}(/\S*)?$"
+    )
+    security_policies: list[OpcUaPolicy] = Field(
+        default_factory=lambda: [  # type: ignore[arg-type]
+            "Basic256Sha256_SignAndEncrypt",
+            "Basic256Sha256_Sign",
+            "Aes256Sha256RsaPss_SignAndEncrypt",
+            "Aes256Sha256RsaPss_Sign",
+        ],
+        min_length=1,
+    )
+    #: sessions without a user; they are viewers (browse, read, subscribe, no method)
+    anonymous: bool = False
+    #: the application URI, also in the server certificate
+    application_uri: str = Field("urn:rc233-gateway", min_length=1, max_length=256)
+    certificate: Path | None = None
+    private_key: Path | None = None
+    #: a folder of trusted client certificates (DER or PEM); None: any client certificate
+    trusted_clients: Path | None = None
+
+    @model_validator(mode="after")
+    def _checks(self) -> Self:
+        port = int(self.endpoint.rsplit(":", 1)[1].split("/")[0])
+        if not 1 <= port <= 65535:
+            raise ValueError(f"endpoint {self.endpoint}: port {port} is not 1-65535")
+        if len(set(self.security_policies)) != len(self.security_policies):
+            raise ValueError("security_policies: each policy once")
+        if (self.certificate is None) != (self.private_key is None):
+            raise ValueError("certificate and private_key go together")
+        return self
+
+
 class GatewayConfig(BaseSettings):
     """The whole configuration (a TOML file, environment ``RC233_*`` over it)."""
 
@@ -300,6 +352,7 @@ class GatewayConfig(BaseSettings):
     ws: WsSettings = WsSettings()
     connections: ConnectionSettings = ConnectionSettings()
     mqtt: MqttSettings | None = None
+    opcua: OpcUaSettings | None = None
 
     @model_validator(mode="after")
     def _names_unique(self) -> Self:

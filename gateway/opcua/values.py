@@ -1,0 +1,159 @@
+"""What each variable of the address space shows: value, status code and source time.
+
+Pure functions of the state cache (and the axes' targets): the face calls them for the
+entities a change notification names and writes the variables whose triple moved. The source
+time is the time of the reading the value comes from (the cache's ``updated``), as wall time.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from datetime import UTC, datetime
+from typing import Any
+
+from asyncua import ua
+
+from gateway.opcua.status import GOOD, WAITING, Freshness, freshness
+from gateway.service.control import ControlState
+from gateway.service.runtime.bus_types import AxisState, CountersSnapshot
+from gateway.service.runtime.runtime import Runtime
+from gateway.service.topology import AxisRef, ControllerRef
+from gateway.service.views import wall_time
+
+__all__ = [
+    "AXIS_VARIABLES",
+    "CONTROLLER_VARIABLES",
+    "COUNTER_VARIABLES",
+    "HAS_HOMED",
+    "LOOP_VARIABLES",
+    "Shown",
+    "axis_values",
+    "controller_values",
+    "loop_values",
+]
+
+V = ua.VariantType
+
+#: Whether the state cache knows if an axis has found its origin (then ``Homed`` is shown).
+HAS_HOMED = any(f.name == "homed" for f in dataclasses.fields(AxisState))
+
+#: Per axis, after OPC 40010 ``AxisType.ParameterSet`` where it has a name for it.
+AXIS_VARIABLES: dict[str, ua.VariantType] = {
+    "ActualPosition": V.Double,
+    "ActualPositionPulses": V.Int32,
+    "TargetPosition": V.Double,
+    "Moving": V.Boolean,
+    **({"Homed": V.Boolean} if HAS_HOMED else {}),
+    "LimitError": V.Boolean,
+    "EmergencyError": V.Boolean,
+    "CommandError": V.Boolean,
+    "StepOutError": V.Boolean,
+    "Stale": V.Boolean,
+}
+CONTROLLER_VARIABLES: dict[str, ua.VariantType] = {
+    "Online": V.Boolean,
+    "Mode": V.Int32,
+    "SoftwareRevision": V.String,
+    "ProgramState": V.String,
+    "LocalControl": V.Boolean,
+    "Moving": V.Boolean,
+}
+COUNTER_VARIABLES: dict[str, ua.VariantType] = {
+    f.name: V.Double if f.type in (float, "float") else V.Int64
+    for f in dataclasses.fields(CountersSnapshot)
+}
+LOOP_VARIABLES: dict[str, ua.VariantType] = {
+    "LineUp": V.Boolean,
+    "DownCause": V.String,
+    "QueueDepth": V.Int32,
+}
+
+
+@dataclass(frozen=True)
+class Shown:
+    """One variable's value, status code and source time (seconds since the epoch)."""
+
+    value: Any
+    status: Freshness
+    time: float | None
+
+    def data_value(self, variant: ua.VariantType) -> ua.DataValue:
+        """The DataValue to write; a Bad status carries no value (never a number to trust)."""
+        bad = ua.StatusCode(self.status).is_bad()
+        value = ua.Variant(None) if bad or self.value is None else ua.Variant(self.value, variant)
+        stamp = None if self.time is None else datetime.fromtimestamp(self.time, UTC)
+        return ua.DataValue(value, ua.StatusCode(self.status), SourceTimestamp=stamp)
+
+
+def axis_values(gateway: Runtime, ref: AxisRef, target: int | None) -> dict[str, Shown]:
+    """Every variable of axis ``ref``; ``target`` the pulses of its operation's target."""
+    line = gateway.state.loop(ref.loop)
+    ctl = gateway.state.controller(ref.loop, ref.body)
+    state = gateway.state.axis(ref.loop, ref.body, ref.motor)
+    when = wall_time(state.updated)
+    status = freshness(
+        line_up=line.up, online=ctl.online, known=state.position is not None, stale=state.stale
+    )
+    flags = freshness(
+        line_up=line.up, online=ctl.online, known=state.updated is not None, stale=state.stale
+    )
+    shown = {
+        "ActualPosition": Shown(ref.to_user(state.position), status, when),
+        "ActualPositionPulses": Shown(state.position, status, when),
+        "TargetPosition": Shown(ref.to_user(target), GOOD if target is not None else WAITING, when),
+        "Moving": Shown(state.moving, flags, when),
+        "LimitError": Shown(state.limit_error, flags, when),
+        "EmergencyError": Shown(state.emergency, flags, when),
+        "CommandError": Shown(state.command_error, flags, when),
+        "StepOutError": Shown(state.step_out, flags, when),
+        "Stale": Shown(state.stale, GOOD, when),
+    }
+    if HAS_HOMED:
+        homed = getattr(state, "homed", None)
+        shown["Homed"] = Shown(homed, flags if homed is not None else WAITING, when)
+    return shown
+
+
+def controller_values(gateway: Runtime, ref: ControllerRef) -> dict[str, Shown]:
+    """Every variable of controller ``ref`` (its nameplate's revision too)."""
+    line = gateway.state.loop(ref.loop)
+    ctl = gateway.state.controller(ref.loop, ref.body)
+    when = wall_time(ctl.updated)
+    up = line.up
+
+    def read(value: Any) -> Shown:
+        return Shown(
+            value,
+            freshness(line_up=up, online=ctl.online, known=value is not None, stale=False),
+            when,
+        )
+
+    online = Shown(ctl.online, WAITING if ctl.online is None else GOOD, when)
+    if not up:
+        online = Shown(False, GOOD, wall_time(line.updated))  # the line down: certainly not
+    local = gateway.control.view(ref).state is ControlState.LOCAL
+    return {
+        "Online": online,
+        "Mode": read(ctl.mode),
+        "SoftwareRevision": read(ctl.version.version if ctl.version else None),
+        "ProgramState": read(ctl.program.value if ctl.program else None),
+        "LocalControl": Shown(local, GOOD, when),
+        "Moving": read(ctl.moving if ctl.online else None),
+    }
+
+
+def loop_values(gateway: Runtime, name: str) -> dict[str, Shown]:
+    """Every variable of loop ``name``: its line and its counters."""
+    state = gateway.state.loop(name)
+    when = wall_time(state.updated)
+    shown = {
+        "LineUp": Shown(state.up, GOOD, when),
+        "DownCause": Shown(state.cause or "", GOOD, when),
+        "QueueDepth": Shown(state.queue_depth, GOOD, when),
+    }
+    for key, variant in COUNTER_VARIABLES.items():
+        raw = state.counters.get(key)
+        value = None if raw is None else (float(raw) if variant is V.Double else int(raw))
+        shown[f"Counters/{key}"] = Shown(value, GOOD if raw is not None else WAITING, when)
+    return shown

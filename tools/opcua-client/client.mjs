@@ -1,0 +1,149 @@
+// One OPC UA session of node-opcua's client, driven by a scenario (JSON, argv[2]):
+//   {"endpoint": "opc.tcp://...", "policy": "None" | "Basic256Sha256" | "Aes256Sha256RsaPss",
+//    "mode": "None" | "Sign" | "SignAndEncrypt", "user": "...", "password": "...",
+//    "pki": "<a folder for the client's certificate>", "steps": [...]}
+// Steps: {"op": "browse", "node"}, {"op": "read", "node"}, {"op": "call", "object",
+// "method", "args": [["Double", 5], ["String", "user"]]}, {"op": "monitor", "name", "node"},
+// {"op": "await", "name", "value" | "status", "timeout"} (until the item reports `value`,
+// or a value of status `status`).
+// Prints one JSON object: {"connected", "error"?, "results": [...]} (a result per step).
+// An array of scenarios runs them one after the other (one process: node-opcua loads once)
+// and prints an array of those objects.
+import {
+  AttributeIds,
+  ClientMonitoredItem,
+  ClientSubscription,
+  DataType,
+  MessageSecurityMode,
+  OPCUAClient,
+  SecurityPolicy,
+  TimestampsToReturn,
+  UserTokenType,
+} from "node-opcua-client";
+import { OPCUACertificateManager } from "node-opcua-certificate-manager";
+
+const given = JSON.parse(process.argv[2]);
+const scenarios = Array.isArray(given) ? given : [given];
+let certificateManager = null;
+
+function shown(dv) {
+  return {
+    status: dv.statusCode.name,
+    value: dv.value ? dv.value.value : null,
+    sourceTimestamp: dv.sourceTimestamp ? dv.sourceTimestamp.toISOString() : null,
+  };
+}
+
+async function run(scenario, out) {
+  if (certificateManager === null) {
+    certificateManager = new OPCUACertificateManager({
+      rootFolder: scenario.pki,
+      automaticallyAcceptUnknownCertificate: true,
+    });
+  }
+  const client = OPCUAClient.create({
+    applicationName: "rc233-gateway-tests",
+    applicationUri: "urn:rc233-gateway-tests",
+    securityMode: MessageSecurityMode[scenario.mode || "None"],
+    securityPolicy: SecurityPolicy[scenario.policy || "None"],
+    endpointMustExist: false,
+    clientCertificateManager: certificateManager,
+    connectionStrategy: { maxRetry: 0, initialDelay: 100, maxDelay: 200 },
+    requestedSessionTimeout: 60000,
+  });
+  await client.connect(scenario.endpoint);
+  let session;
+  try {
+    const identity = scenario.user
+      ? { type: UserTokenType.UserName, userName: scenario.user, password: scenario.password }
+      : { type: UserTokenType.Anonymous };
+    session = await client.createSession(identity);
+    out.connected = true;
+    const items = {};
+    let subscription = null;
+    for (const step of scenario.steps || []) {
+      if (step.op === "browse") {
+        const result = await session.browse(step.node);
+        out.results.push({
+          status: result.statusCode.name,
+          names: result.references.map((r) => r.browseName.name),
+          nodes: result.references.map((r) => r.nodeId.toString()),
+        });
+      } else if (step.op === "read") {
+        const dv = await session.read({ nodeId: step.node, attributeId: AttributeIds.Value });
+        out.results.push(shown(dv));
+      } else if (step.op === "call") {
+        const result = await session.call({
+          objectId: step.object,
+          methodId: step.method,
+          inputArguments: (step.args || []).map(([type, value]) => ({
+            dataType: DataType[type],
+            value,
+          })),
+        });
+        out.results.push({
+          status: result.statusCode.name,
+          outputs: (result.outputArguments || []).map((v) => v.value),
+        });
+      } else if (step.op === "monitor") {
+        if (subscription === null) {
+          subscription = ClientSubscription.create(session, {
+            requestedPublishingInterval: 50,
+            requestedLifetimeCount: 600,
+            requestedMaxKeepAliveCount: 20,
+            maxNotificationsPerPublish: 1000,
+            publishingEnabled: true,
+            priority: 10,
+          });
+        }
+        const seen = [];
+        const item = ClientMonitoredItem.create(
+          subscription,
+          { nodeId: step.node, attributeId: AttributeIds.Value },
+          { samplingInterval: 0, discardOldest: true, queueSize: 100 },
+          TimestampsToReturn.Both,
+        );
+        item.on("changed", (dv) => seen.push(shown(dv)));
+        items[step.name] = seen;
+        out.results.push({ status: "Good" });
+      } else if (step.op === "await") {
+        // what the item reported since the last await of it, until `value` came
+        const seen = items[step.name];
+        const until = Date.now() + (step.timeout || 20000);
+        // a Good `value`, or (with "status") the first report of that status
+        const hit = step.status
+          ? () => seen.some((s) => s.status === step.status)
+          : () => seen.some((s) => s.status === "Good" && s.value === step.value);
+        while (!hit() && Date.now() < until) {
+          await new Promise((resolve) => setTimeout(resolve, 20));
+        }
+        const reached = hit();
+        out.results.push({ status: reached ? "Good" : "Timeout", seen: seen.splice(0) });
+      } else {
+        throw new Error(`unknown step ${step.op}`);
+      }
+    }
+    if (subscription !== null) await subscription.terminate();
+  } finally {
+    if (session) await session.close();
+    await client.disconnect();
+  }
+}
+
+async function main() {
+  const outs = [];
+  for (const scenario of scenarios) {
+    const out = { connected: false, results: [] };
+    try {
+      await run(scenario, out);
+    } catch (err) {
+      out.error = String(err && err.message ? err.message : err);
+    }
+    outs.push(out);
+  }
+  // exit once written: a pipe takes 64 KiB at a time
+  const text = JSON.stringify(Array.isArray(given) ? outs : outs[0]) + "\n";
+  process.stdout.write(text, () => process.exit(0));
+}
+
+main();
