@@ -248,9 +248,11 @@ def _opcua_face(
     if config.opcua is None:
         return None
     print(f"rc233-gateway serve: OPC UA server {config.opcua.endpoint}", flush=True)
+    audit = app.state.audit
     return OpcUaFace(
         gateway, config.opcua, axes=app.state.axes, stops=app.state.stops,
-        lookup=auth.book.lookup, audit=app.state.audit.record, state_dir=store.directory,
+        lookup=auth.book.lookup, audit=audit.record, ahead=audit.write_ahead,
+        state_dir=store.directory,
     )  # fmt: skip
 
 

@@ -16,11 +16,12 @@ from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Awaitable, Callable, Mapping
+from collections.abc import Callable, Mapping
 from typing import Any, Protocol
 
 from gateway.errors import GatewayError
 from gateway.mqtt.sparkplug import Value
+from gateway.service.audit import WriteAhead
 from gateway.service.operations.terms import StopMode
 from gateway.service.roles import Role
 from gateway.service.topology import ControllerRef
@@ -55,15 +56,6 @@ class StopAxes(Protocol):
 
 
 CommandResult = tuple[int, str]
-
-
-class WriteAhead(Protocol):
-    """``gateway.service.audit.AuditRecord.write_ahead``: the entry on disk before acting."""
-
-    def __call__(
-        self, entry: Mapping[str, Any], *, motion: bool, stop: bool = False
-    ) -> Awaitable[int | None]:
-        """The entry's seq (None: a stop's entry queued); raises when it cannot be written."""
 
 
 class DeviceCommands:

@@ -20,6 +20,7 @@ from gateway.opcua.certificate import ensure_certificate, server_files
 from gateway.opcua.methods import Audit, Methods, StatusRefusal
 from gateway.opcua.users import TokenUsers, install_caller_context
 from gateway.opcua.values import Shown, axis_values, controller_values, loop_values
+from gateway.service.audit import WriteAhead
 from gateway.service.axes import AxisService
 from gateway.service.config import OpcUaSettings
 from gateway.service.events import EventKind, ServiceEvent
@@ -64,10 +65,11 @@ class OpcUaFace:
         stops: StopAll,
         lookup: Any,
         audit: Audit,
+        ahead: WriteAhead | None = None,
         state_dir: Any,
     ) -> None:
         self.gateway, self.settings = gateway, settings
-        self.methods = Methods(axes, stops, audit)
+        self.methods = Methods(axes, stops, audit, ahead)
         self.users = TokenUsers(lookup, anonymous=settings.anonymous)
         self.state_dir = state_dir
         self.server = Server(user_manager=self.users)

@@ -5,7 +5,10 @@ accepted, with the operation's id; the client follows ``Moving`` or the operatio
 Each call goes to the same service methods as the REST routes (the lease, soft limits, local
 control and every other check are theirs), as the session's user (its token's name holds
 leases), and is one entry of the audit record with ``method`` ``OPCUA`` and the method's
-path as ``path``, refusals too. A refusal answers with a status code (``status``).
+path as ``path``, refusals too. A call that acts has its intent written ahead of its first
+frame, as a REST request's is (DESIGN invariant 14): when that entry cannot be written the
+call is refused ``BadResourceUnavailable`` and nothing acts, stops excepted (their entry is
+queued). A refusal answers with a status code (``status``).
 """
 
 from __future__ import annotations
@@ -19,6 +22,7 @@ from asyncua import ua
 from gateway.errors import GatewayError
 from gateway.opcua.status import refusal_status
 from gateway.opcua.users import GatewayUser, caller
+from gateway.service.audit import WriteAhead
 from gateway.service.axes import AxisService
 from gateway.service.operations.terms import HomeMethod, StopMode, Unit
 from gateway.service.roles import Role
@@ -54,42 +58,58 @@ def _choice(kind: type[Any], value: Any, argument: str, default: Any) -> Any:
 class Methods:
     """What the methods do: service calls, role checks and the audit record."""
 
-    def __init__(self, axes: AxisService, stops: StopAll, audit: Audit) -> None:
+    def __init__(
+        self, axes: AxisService, stops: StopAll, audit: Audit, ahead: WriteAhead | None = None
+    ) -> None:
         self.axes, self.stops, self.audit = axes, stops, audit
+        #: writes a call's intent before it acts (None: only the outcome is recorded)
+        self.ahead = ahead
 
     async def call(
-        self, path: str, body: dict[str, Any], action: Callable[[str], Awaitable[Any]]
+        self,
+        path: str,
+        body: dict[str, Any],
+        action: Callable[[str], Awaitable[Any]],
+        *,
+        motion: bool = False,
+        stop: bool = False,
     ) -> Any:
-        """Run ``action(holder)`` as the caller, an operator; audited; status on refusal."""
+        """Run ``action(holder)`` as the caller, an operator; audited (its intent written
+        ahead: ``motion`` fsyncs it by default, a ``stop`` never waits for it); status on
+        refusal."""
         began = time.perf_counter()
         user = caller()
         status, result, answer = ua.StatusCodes.Good, "done", None
+        intent: int | None = None
         try:
             if user is None or not user.gateway_role.allows(Role.OPERATOR):
                 raise StatusRefusal(
                     ua.StatusCodes.BadUserAccessDenied, f"{_who(user)} is not an operator"
                 )
+            if self.ahead is not None:
+                entry = {**_entry(user, path, body), "event": "intent"}
+                try:
+                    intent = await self.ahead(entry, motion=motion, stop=stop)
+                except GatewayError as exc:
+                    raise StatusRefusal(
+                        ua.StatusCodes.BadResourceUnavailable,
+                        f"the audit entry cannot be written, nothing was sent: {exc}",
+                    ) from None
             answer = await action(str(user.name))
             result = _said(answer)
         except StatusRefusal as exc:
             status, result = exc.status, str(exc)
         except GatewayError as exc:
             status, result = refusal_status(exc), f"{type(exc).__name__}: {exc}"
-        self.audit(
-            {
-                "time": _utc(),
-                "token": user.name if user else None,
-                "role": str(user.gateway_role) if user else None,
-                "client": "opcua",
-                "method": AUDIT_METHOD,
-                "path": path,
-                "query": None,
-                "body": body,
-                "status": ua.StatusCode(status).name,
-                "duration": round(time.perf_counter() - began, 6),
-                "result": result,
-            }
+        outcome = _entry(user, path, body)
+        outcome.update(
+            status=ua.StatusCode(status).name,
+            duration=round(time.perf_counter() - began, 6),
+            result=result,
         )
+        if intent is not None:
+            outcome["intent"] = intent
+        self.audit(outcome)
         if status != ua.StatusCodes.Good:
             raise StatusRefusal(status, result)
         return answer
@@ -107,7 +127,7 @@ class Methods:
             )
 
         body = {"position": position, "unit": unit}
-        return str((await self._axis_call(axis, name, body, act)).id)
+        return str((await self._axis_call(axis, name, body, act, motion=True)).id)
 
     async def home(self, axis: str, method: str) -> str:
         """Start an origin search; the operation's id."""
@@ -116,7 +136,7 @@ class Methods:
             chosen = _choice(HomeMethod, method, "method", HomeMethod.SEARCH_1)
             return await self.axes.home(axis, chosen, holder=holder)
 
-        return str((await self._axis_call(axis, "Home", {"method": method}, act)).id)
+        return str((await self._axis_call(axis, "Home", {"method": method}, act, motion=True)).id)
 
     async def stop_axis(self, axis: str, mode: str) -> str:
         """Stop the axis's controller; the outcome (done, not_done, unknown)."""
@@ -125,7 +145,7 @@ class Methods:
             chosen = _choice(StopMode, mode, "mode", StopMode.DECELERATE)
             return await self.axes.stop(axis, chosen)
 
-        return str((await self._axis_call(axis, "Stop", {"mode": mode}, act)).outcome)
+        return str((await self._axis_call(axis, "Stop", {"mode": mode}, act, stop=True)).outcome)
 
     async def acknowledge(self, axis: str) -> None:
         """Clear the axis's latched errors."""
@@ -136,9 +156,16 @@ class Methods:
         await self._axis_call(axis, "AcknowledgeErrors", {}, act)
 
     async def _axis_call(
-        self, axis: str, name: str, body: dict[str, Any], act: Callable[[str], Awaitable[Any]]
+        self,
+        axis: str,
+        name: str,
+        body: dict[str, Any],
+        act: Callable[[str], Awaitable[Any]],
+        *,
+        motion: bool = False,
+        stop: bool = False,
     ) -> Any:
-        return await self.call(f"axes/{axis}/{name}", body, act)
+        return await self.call(f"axes/{axis}/{name}", body, act, motion=motion, stop=stop)
 
     # ------------------------------------------------------------------ stop-all
 
@@ -149,7 +176,8 @@ class Methods:
             chosen = _choice(StopMode, mode, "mode", StopMode.DECELERATE)
             return await self.stops.controller(controller, chosen)
 
-        result = await self.call(f"controllers/{controller}/Stop", {"mode": mode}, act)
+        path = f"controllers/{controller}/Stop"
+        result = await self.call(path, {"mode": mode}, act, stop=True)
         return str(result.outcome)
 
     async def stop_loop(self, loop: str, mode: str) -> str:
@@ -159,8 +187,22 @@ class Methods:
             chosen = _choice(StopMode, mode, "mode", StopMode.DECELERATE)
             return await self.stops.loop(loop, chosen)
 
-        result = await self.call(f"loops/{loop}/Stop", {"mode": mode}, act)
+        result = await self.call(f"loops/{loop}/Stop", {"mode": mode}, act, stop=True)
         return str(result.outcome)
+
+
+def _entry(user: GatewayUser | None, path: str, body: dict[str, Any]) -> dict[str, Any]:
+    """What every audit entry of a call says: when, who, what."""
+    return {
+        "time": _utc(),
+        "token": user.name if user else None,
+        "role": str(user.gateway_role) if user else None,
+        "client": "opcua",
+        "method": AUDIT_METHOD,
+        "path": path,
+        "query": None,
+        "body": body,
+    }
 
 
 def _who(user: GatewayUser | None) -> str:

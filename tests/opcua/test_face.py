@@ -187,9 +187,17 @@ async def test_every_call_is_audited_refusals_too(cell: Cell) -> None:
     paths = {e["path"] for e in opcua}
     assert {"axes/main.1.1/MoveAbsolute", "axes/main.1.1/Home", "controllers/main.1/Stop",
             "loops/main/Stop"} <= paths  # fmt: skip
-    refused = [e for e in opcua if e["status"] == "BadOutOfRange"]
+    refused = [e for e in opcua if e.get("status") == "BadOutOfRange"]
     assert refused and refused[0]["token"] == "op" and refused[0]["client"] == "opcua"
-    assert any(e["status"] == "BadUserAccessDenied" and e["token"] == "view" for e in opcua)
+    assert any(e.get("status") == "BadUserAccessDenied" and e["token"] == "view" for e in opcua)
+    # A call that acts was on disk before it acted: its intent, then its outcome naming it.
+    by_seq = {e["seq"]: e for e in entries}
+    for path in ("axes/main.1.1/MoveAbsolute", "controllers/main.1/Stop"):
+        done = [e for e in opcua if e["path"] == path and e.get("status") == "Good"]
+        assert done, (path, opcua)
+        intent = by_seq[done[0]["intent"]]
+        assert (intent["event"], intent["path"]) == ("intent", path), intent
+        assert intent["seq"] < done[0]["seq"]
     assert not any(OPERATOR[1] in line or VIEWER[1] in line for line in lines)
 
 

@@ -6,7 +6,14 @@
 """
 
 from gateway.service.audit.chain_file import ChainFile, RotationPolicy
-from gateway.service.audit.record import MEMORY, AuditRecord, AuditUnavailable, FsyncPolicy, utc_now
+from gateway.service.audit.record import (
+    MEMORY,
+    AuditRecord,
+    AuditUnavailable,
+    FsyncPolicy,
+    WriteAhead,
+    utc_now,
+)
 from gateway.service.audit.verify import Break, Verified, verify
 
 __all__ = [
@@ -18,6 +25,7 @@ __all__ = [
     "FsyncPolicy",
     "RotationPolicy",
     "Verified",
+    "WriteAhead",
     "utc_now",
     "verify",
 ]

@@ -25,11 +25,11 @@ import contextlib
 import logging
 import threading
 from collections import deque
-from collections.abc import Iterable, Mapping
+from collections.abc import Awaitable, Iterable, Mapping
 from datetime import UTC, datetime
 from enum import StrEnum
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 from gateway.errors import ServiceError
 from gateway.service.audit.bounds import bounded
@@ -55,6 +55,15 @@ class FsyncPolicy(StrEnum):
     ACTING = "acting"  # every entry written ahead of something that acts
     ALL = "all"  # every entry, outcomes too
     NONE = "none"  # none: written and flushed to the OS only
+
+
+class WriteAhead(Protocol):
+    """``AuditRecord.write_ahead`` as a face sees it: the entry on disk before acting."""
+
+    def __call__(
+        self, entry: Mapping[str, Any], *, motion: bool, stop: bool = False
+    ) -> Awaitable[int | None]:
+        """The entry's seq (None: a stop's entry queued); raises when it cannot be written."""
 
 
 class AuditUnavailable(ServiceError):
