@@ -29,6 +29,7 @@ op                 fields                                                       
 ``ems``            ``body``, ``pressed``                                           EMS
 ``sensor``         ``body``, ``motor``, ``sensor``, ``on`` (true/false/null)       force
 ``slip``           ``body``, ``motor``, ``pulses``                                 step-out
+``preset``         ``body``, ``motor``, ``position``: the counter reads it there   preset
 ``input``          ``body``, ``bit`` (0-7; 8, 9: INP1, INP2), ``on``               input
 ``inp``            ``body``, ``motor``, ``on`` (true/false/null)                   servo INP
 ``fault``          ``kind`` and ``faults.FaultRule`` fields; neither               arm rule
@@ -156,6 +157,20 @@ class Controls:
         self._check_motor(motor)
         self._on_device(body, lambda u, now: u.device.slip(now, motor, pulses))
 
+    def preset(self, body: str, motor: int, position: int) -> None:
+        """Set a motor's position counter without motion, as an ``R`` the gateway did not send
+        does (a user program's, a second host's during commissioning); refused while that
+        motor moves, as ``R`` is (§10 R)."""
+        self._check_motor(motor)
+
+        def act(unit: Unit, now: float) -> None:
+            try:
+                unit.device.preset(now, motor, position)
+            except ValueError as exc:
+                raise ControlError(f"controller {body}: {exc}") from None
+
+        self._on_device(body, act)
+
     def input(self, body: str, bit: int, on: bool) -> None:
         """Drive general input ``bit`` (0-7), or INP1/INP2 as bits 8 and 9 (§10 C)."""
         if bit not in range(10):
@@ -242,6 +257,7 @@ _OPS: dict[str, Callable[..., Any]] = {
     "ems": Controls.ems,
     "sensor": Controls.sensor,
     "slip": Controls.slip,
+    "preset": Controls.preset,
     "input": Controls.input,
     "inp": Controls.inp,
     "fault": Controls.fault,

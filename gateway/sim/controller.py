@@ -340,6 +340,14 @@ class Controller:
         self.advance(now)
         self.axes[motor].force(sensor, on)  # type: ignore[arg-type]
 
+    def preset(self, now: float, motor: int, position: int) -> None:
+        """An ``R`` the gateway did not send (§10 R): refused while that motor moves."""
+        self.advance(now)
+        axis = self.axes[motor]
+        if axis.is_moving(now):
+            raise ValueError(f"motor {motor} moves: R is refused while moving (§10 R)")
+        axis.preset(now, position)
+
     def slip(self, now: float, motor: int, pulses: int) -> None:
         """Lose ``pulses`` on ``motor`` (step-out injection); a motor at rest is checked at
         once when QS 2 asks for it (§10 QS, mode 1), a moving one by its motion's detection."""

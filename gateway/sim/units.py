@@ -120,6 +120,9 @@ class Device(Protocol):
     def slip(self, now: float, motor: int, pulses: int) -> None:
         """Lose pulses on a motor (step-out)."""
 
+    def preset(self, now: float, motor: int, position: int) -> None:
+        """Set a motor's counter without motion, from outside the line (a foreign ``R``)."""
+
     def set_input(self, now: float, bit: int, on: bool) -> None:
         """Drive a general input."""
 

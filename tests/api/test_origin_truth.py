@@ -191,3 +191,28 @@ async def test_a_controller_reset_makes_the_selection_unknown_so_motor_2_is_sele
         assert r.status_code == 200, r.text
         heard = api.heard("1", mark)
         assert "F2" in heard and heard.index("F2") < heard.index("OH"), heard
+
+
+async def test_a_preset_from_outside_the_gateway_to_zero_loses_the_origin() -> None:
+    """The control surface's ``preset``: an ``R`` the gateway did not send. Its counter now
+    says 0 where the axis stood at 3000: the gateway cannot tell it from a reset, and says the
+    origin is lost rather than trusting the old one."""
+    async with running_app(("1",)) as api:
+        r = await move(api, "x", 3000, "pulse")
+        assert r.status_code == 200, r.text  # type: ignore[attr-defined]
+        Controls(api.sim).preset("1", 1, 0)
+        await api.until(lambda: api.gateway.state.axis("sim", "1", 1).origin == Origin.LOST)
+        view = json_of(await api.client.get("/axes/x"))
+        assert (view["origin"], view["position"], view["counter"]) == ("lost", 0, 0)
+
+
+async def test_the_control_surface_refuses_a_preset_while_the_motor_moves() -> None:
+    async with running_app(("1",)) as api:
+        r = await api.client.post("/axes/x/move", json={"position": 90_000, "unit": "pulse"})
+        assert r.status_code == 202, r.text
+        await api.until(
+            lambda: api.device("1").snapshot(api.sim.act(lambda now: now))["axes"]["1"]["moving"]
+        )
+        reply = Controls(api.sim).handle({"op": "preset", "body": "1", "motor": 1, "position": 5})
+        assert reply["ok"] is False and "refused while moving" in reply["error"], reply
+        await api.client.post("/axes/x/stop", json={})
