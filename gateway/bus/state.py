@@ -401,6 +401,7 @@ class StateCache:
                 body,
                 m,
                 origin=Origin.LOST,
+                origin_cause=cause,
                 homing=False,
                 counting=False,
                 position_current=m == read,

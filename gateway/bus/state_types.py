@@ -86,6 +86,7 @@ class AxisState:
     position_current: bool = False
     moving: bool | None = None  # None: not read yet, or the moving motor is not known
     origin: Origin = Origin.UNKNOWN
+    origin_cause: str | None = None  # why the origin was last lost (a reset the gateway saw)
     homing: bool = False  # an origin search was accepted and has not ended yet
     #: the counter may have changed since the last reading: motion, a preset, a search
     counting: bool = False

@@ -114,6 +114,9 @@ class AxisView(BaseModel):
         "controller reset was seen (moves in user units and on axes with soft limits are "
         "refused until homed)"
     )
+    origin_cause: str | None = Field(
+        None, description="while the origin is lost: why the gateway concluded a reset"
+    )
     selected: bool = Field(description="F selects this motor (§10 F)")
     sensors: Sensors | None
     errors: AxisErrors
@@ -238,6 +241,7 @@ def axis_view(ref: AxisRef, state: AxisState, control: ControlView) -> AxisView:
         moving=state.moving,
         homed=state.homed,
         origin=state.origin.value,
+        origin_cause=state.origin_cause if state.origin is Origin.LOST else None,
         selected=state.selected,
         sensors=None
         if sensors is None

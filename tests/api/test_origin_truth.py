@@ -204,6 +204,10 @@ async def test_a_preset_from_outside_the_gateway_to_zero_loses_the_origin() -> N
         await api.until(lambda: api.gateway.state.axis("sim", "1", 1).origin == Origin.LOST)
         view = json_of(await api.client.get("/axes/x"))
         assert (view["origin"], view["position"], view["counter"]) == ("lost", 0, 0)
+        # the view keeps why, for a client that was not listening when it happened
+        assert "reads 0 after 3000" in view["origin_cause"], view
+        await home(api)
+        assert json_of(await api.client.get("/axes/x"))["origin_cause"] is None
 
 
 async def test_the_control_surface_refuses_a_preset_while_the_motor_moves() -> None:

@@ -79,15 +79,16 @@ export function Position({ axis, big = true }) {
 
 // What the gateway knows of the origin: homed (a quiet ok), unknown (no origin search seen
 // since the gateway started: moves pass, so only a quiet note), lost (a controller reset was
-// seen: moves that need the origin are refused until homed). The cause is the origin event's,
-// when the page saw it; the view itself carries none.
+// seen: moves that need the origin are refused until homed). The cause is the view's (the
+// gateway keeps it while the origin is lost), else the origin event's the page saw.
 export function OriginLine({ axis }) {
   if (axis.origin === "homed") {
     return html`<div class="origin homed" data-testid="origin" title="an origin search ended and no controller reset since">homed</div>`;
   }
   if (axis.origin === "lost") {
     const seen = store.origins.get(axis.id);
-    const cause = seen && seen.origin === "lost" && seen.cause ? seen.cause : "a controller reset was seen";
+    const heard = seen && seen.origin === "lost" ? seen.cause : null;
+    const cause = axis.origin_cause || heard || "a controller reset was seen";
     return html`<div class="origin lost" role="alert" data-testid="origin">
       <strong>origin lost — home first</strong> <span class="why" data-testid="origin-cause">${cause}</span>
     </div>`;
