@@ -118,14 +118,21 @@ class WorkerClient:
 
     def _gone(self, cause: str, retry_after: float | None) -> None:
         self.mirror.forget(self.name)
+        now = time.monotonic()
+        for loop in self.proxies:
+            # as after a line loss: nothing the dead worker read is current, not even that a
+            # motor moves; the next worker reads the devices again
+            self.mirror.set_link(loop, False, now, cause)
         waiting, self._waiting = self._waiting, {}
         for loop, future in waiting.values():
             if not future.done():
                 future.set_exception(LoopDown(loop, cause, in_flight=True))
         for proxy in self.proxies.values():
-            was_up = proxy.state is LinkState.UP
+            # a second word on the same loss (the supervisor learns how the worker ended
+            # after its channel closed) is told too: clients see the cause they can act on
+            news = proxy.state is LinkState.UP or proxy.cause != cause
             proxy.state, proxy.cause, proxy.retry_after = LinkState.DOWN, cause, retry_after
-            if was_up:
+            if news:
                 proxy.events.publish(
                     LinkDown(
                         loop=proxy.name, time=time.monotonic(), cause=cause, retry_after=retry_after

@@ -74,6 +74,7 @@ class _Pickler(pickle.Pickler):
 class Kind(StrEnum):
     """What a message is (its first item)."""
 
+    START = "start"  # client, first: (START, [LoopSpec, ...]) the loops to run
     SUBMIT = "submit"  # client: (SUBMIT, rid, loop, body, commands, priority, motor, deadline)
     STOP = "stop"  # client, stop channel: (STOP, rid, loop, body, command)
     RESYNC = "resync"  # client: (RESYNC,) send a snapshot again (a change was missed)
