@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import asyncio
 import copyreg
+import functools
 import io
 import pickle
 import struct
@@ -56,10 +57,16 @@ _REDUCERS = copyreg.dispatch_table.copy()
 _REDUCERS[MappingProxyType] = _reduce_mapping
 
 
-def command_of(text: str) -> Command:
+@functools.lru_cache(maxsize=4096)
+def command_of(text: str, model: str) -> Command:
     """A command again from its text (pickle names this function): the models are made per
-    form at import, so they cross as the text they encode to and are parsed on arrival."""
-    return parse(text)
+    form at import, so they cross as the text they encode to and are parsed on arrival
+    (once a text: the models are frozen, one parsed command serves every message). A text
+    that parses as another model than it was sent as is refused, never guessed."""
+    command = parse(text)
+    if type(command).__name__ != model:
+        raise ValueError(f"{text!r} was sent as {model} and parses as {type(command).__name__}")
+    return command
 
 
 class _Pickler(pickle.Pickler):
@@ -67,7 +74,7 @@ class _Pickler(pickle.Pickler):
 
     def reducer_override(self, obj: Any) -> Any:
         if isinstance(obj, Command):
-            return command_of, (obj.wire(),)
+            return command_of, (obj.wire(), type(obj).__name__)
         return NotImplemented
 
 
