@@ -22,7 +22,8 @@ import time
 from collections.abc import Iterable, Sequence
 from typing import Any
 
-from gateway.bus.events import BusEvent, EventBus, LinkDown, LinkUp
+from gateway.bus.counters import CountersSnapshot
+from gateway.bus.events import BusEvent, EventBus, LinkDown, LinkUp, TransactionDone
 from gateway.bus.lifecycle import LinkState
 from gateway.bus.requests import LoopDown, Priority, TransactionResult
 from gateway.engine.mirror import StateMirror
@@ -45,6 +46,13 @@ class SchedulerProxy:
         self.events: EventBus[BusEvent] = EventBus()
         #: host seconds from now when the worker is expected back (None: not known)
         self.retry_after: float | None = None
+        #: requests queued in the worker's scheduler, as of its latest event
+        self.queue_depth = 0
+        #: the loop's counters as of its latest transaction (``snapshot()``)
+        self.counters = CountersSnapshot()
+        #: what the worker's last open of the line learned of a local adapter (transport/'s
+        #: ``AdapterReport``, named here by no type: the API side imports no transport)
+        self.adapter: object | None = None
 
     async def submit(
         self,
@@ -66,6 +74,10 @@ class SchedulerProxy:
         return await self.client.request(
             self.name, (Kind.STOP, self.name, body, command), urgent=True
         )
+
+    def snapshot(self) -> CountersSnapshot:
+        """The loop's counters as of its latest transaction in the worker."""
+        return self.counters
 
     def down_error(self) -> LoopDown:
         """The error of a request refused because the loop is not up."""
@@ -172,11 +184,14 @@ class WorkerClient:
                 self.mirror.forget(self.name)
                 self._writers[0].write(encode((Kind.RESYNC,)))
         elif kind == Kind.EVENT:
-            _, loop, event, state, cause = message
+            _, loop, event, state, cause, depth = message
             proxy = self.proxies[loop]
+            proxy.queue_depth = depth
             proxy.state, proxy.cause = LinkState(state), cause
             if isinstance(event, LinkDown):
                 proxy.retry_after = event.retry_after
+            elif isinstance(event, TransactionDone):
+                proxy.counters = event.counters
             proxy.events.publish(event)
         elif kind in (Kind.RESULT, Kind.ERROR):
             entry = self._waiting.pop(message[1], None)
@@ -187,10 +202,11 @@ class WorkerClient:
                     entry[1].set_exception(decode_error(message[2]))
         elif kind == Kind.SNAPSHOT:
             self.mirror.load(self.name, message[1])
-            for loop, (state, cause) in message[2].items():
+            for loop, (state, cause, depth, counters, adapter) in message[2].items():
                 proxy = self.proxies[loop]
                 was_up = proxy.state is LinkState.UP
                 proxy.state, proxy.cause = LinkState(state), cause
+                proxy.queue_depth, proxy.counters, proxy.adapter = depth, counters, adapter
                 if proxy.state is LinkState.UP and not was_up:
                     proxy.events.publish(LinkUp(loop=loop, time=time.monotonic()))
             self.synced.set()

@@ -38,9 +38,13 @@ class LineWorker:
         self.state = state
         self._tasks: set[asyncio.Task[None]] = set()
 
-    def links(self) -> dict[str, tuple[str, str]]:
-        """Every loop's link state and cause, as the snapshot carries them."""
-        return {name: (s.state.value, s.cause) for name, s in self.schedulers.items()}
+    def links(self) -> dict[str, tuple[Any, ...]]:
+        """Every loop's link state, cause, queue depth, counters and adapter report, as the
+        snapshot carries them."""
+        return {
+            name: (s.state.value, s.cause, s.queue_depth, s.snapshot(), s.transport.adapter)
+            for name, s in self.schedulers.items()
+        }
 
     async def serve(self, requests: Channel, stops: Channel) -> None:
         """Serve one client until it closes the request channel."""
@@ -82,7 +86,8 @@ class LineWorker:
     ) -> Callable[[BusEvent], None]:
         def relay(event: BusEvent) -> None:
             # the link as of the event: the client's proxy reads it without asking
-            send((Kind.EVENT, name, event, scheduler.state.value, scheduler.cause))
+            send((Kind.EVENT, name, event, scheduler.state.value, scheduler.cause,
+                  scheduler.queue_depth))  # fmt: skip
 
         return relay
 

@@ -119,3 +119,18 @@ async def test_a_worker_gone_fails_its_requests_and_a_new_attachment_resyncs_the
     assert proxy.state is LinkState.UP
     assert linked.client.mirror.axis(proxy.name, "1", 1).moving is True
     await proxy.stop("1")
+
+
+async def test_the_loop_counters_cross_with_each_transaction(
+    make_bus: MakeBus, attach: Attach
+) -> None:
+    bus = await make_bus("1")
+    linked = await attach(bus)
+    proxy = linked.client.proxies[bus.scheduler.name]
+    before = proxy.snapshot().transactions
+    await proxy.submit("1", parse("A005D"))
+    await proxy.submit("1", parse("A006D"))
+    # the reply to the caller comes after the transaction's event, on the same channel
+    assert proxy.snapshot().transactions == before + 2
+    assert proxy.snapshot() == bus.scheduler.snapshot()
+    assert proxy.queue_depth == 0
