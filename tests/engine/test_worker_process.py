@@ -49,14 +49,20 @@ async def _until_event(
     return next(e for e in events if match(e))
 
 
-async def test_a_killed_worker_is_restarted_and_its_moving_axis_is_read_back(
-    tmp_path: Path,
-) -> None:
+async def _sim(tmp_path: Path, loop: str) -> tuple[RestartRig, LoopSpec]:
+    """A simulated loop in a process of its own, and the worker's spec of it."""
     rig = RestartRig(tmp_path, SCALE)
     await rig.start_sim()
     found = re.search(r'port = "(socket://[^"]+)"', rig.config.read_text("utf-8"))
     assert found
-    spec = LoopSpec(LoopConfig(name="main", time_scale=SCALE), PollConfig(), ("1",), found[1], 9600)
+    config = LoopConfig(name=loop, time_scale=SCALE)
+    return rig, LoopSpec(config, PollConfig(), ("1",), found[1], 9600)
+
+
+async def test_a_killed_worker_is_restarted_and_its_moving_axis_is_read_back(
+    tmp_path: Path,
+) -> None:
+    rig, spec = await _sim(tmp_path, "main")
     mirror = StateMirror()
     client = WorkerClient("w1", ["main"], mirror)
     supervisor = WorkerSupervisor(client, [spec], backoff=(BACKOFF,))
@@ -107,3 +113,36 @@ async def test_a_killed_worker_is_restarted_and_its_moving_axis_is_read_back(
     finally:
         await supervisor.close()
         await rig.close()
+
+
+async def test_the_other_worker_goes_on_while_one_is_dead(tmp_path: Path) -> None:
+    (tmp_path / "a").mkdir()
+    (tmp_path / "b").mkdir()
+    rig_a, spec_a = await _sim(tmp_path / "a", "a")
+    rig_b, spec_b = await _sim(tmp_path / "b", "b")
+    mirror = StateMirror()  # one mirror, fed by both workers
+    a = WorkerSupervisor(WorkerClient("wa", ["a"], mirror), [spec_a], backoff=(60.0,))
+    b = WorkerSupervisor(WorkerClient("wb", ["b"], mirror), [spec_b], backoff=(60.0,))
+    proxy_a, proxy_b = a.client.proxies["a"], b.client.proxies["b"]
+    try:
+        await asyncio.wait_for(asyncio.gather(a.start(), b.start()), WAIT)
+        both_up = lambda: proxy_a.state is LinkState.UP and proxy_b.state is LinkState.UP  # noqa: E731
+        await until_state(mirror, both_up, WAIT)
+        assert a.process is not None
+        a.process.kill()
+        # the channel closes first, then the supervisor learns how the worker ended
+        await until_state(mirror, lambda: "restarting in" in (mirror.loop("a").cause or ""), WAIT)
+        assert not mirror.loop("a").up and "was killed by SIGKILL" in proxy_a.cause
+        with pytest.raises(LoopDown) as refused:
+            await proxy_a.submit("1", parse(""))
+        assert refused.value.retry_after == 60.0  # the back-off: when to ask again
+        # Loop b, in its own worker, answers as before, and its state still flows.
+        result = await proxy_b.submit("1", [parse("A0051234"), parse("A005D")])
+        assert result.value == 1234 and proxy_b.state is LinkState.UP
+        await proxy_b.submit("1", parse("7"), motor=1)
+        await until_state(mirror, lambda: mirror.controller("b", "1").moving is True, WAIT)
+        assert mirror.loop("b").up and proxy_a.state is LinkState.DOWN
+        await proxy_b.stop("1")
+    finally:
+        await asyncio.gather(a.close(), b.close())
+        await asyncio.gather(rig_a.close(), rig_b.close())
