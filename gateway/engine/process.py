@@ -14,7 +14,7 @@ import logging
 import socket
 import sys
 
-from gateway.bus.poller import attach
+from gateway.bus.poller import Poller, attach
 from gateway.bus.scheduler import LoopScheduler
 from gateway.bus.state import StateCache
 from gateway.engine.spec import LoopSpec
@@ -45,18 +45,18 @@ async def run_worker(requests_fd: int, stops_fd: int) -> None:
     specs: list[LoopSpec] = start[1]
     state = StateCache()
     schedulers: dict[str, LoopScheduler] = {}
-    pollers = []
+    pollers: dict[str, Poller] = {}
     for spec in specs:
         scheduler = LoopScheduler(open_transport(spec.url, spec.baud), spec.config)
         schedulers[spec.name] = scheduler
-        pollers.append(attach(scheduler, state, spec.bodies, spec.poll))
+        pollers[spec.name] = attach(scheduler, state, spec.bodies, spec.poll)
     await asyncio.gather(*(s.start() for s in schedulers.values()))
-    for poller in pollers:
+    for poller in pollers.values():
         poller.start()
     try:
-        await LineWorker(schedulers, state).serve(requests, stops)
+        await LineWorker(schedulers, state, pollers).serve(requests, stops)
     finally:
-        await asyncio.gather(*(p.stop() for p in pollers))
+        await asyncio.gather(*(p.stop() for p in pollers.values()))
         await asyncio.gather(*(s.close(drain=DRAIN_SECONDS) for s in schedulers.values()))
 
 

@@ -29,6 +29,7 @@ from gateway.bus.requests import LoopDown, Priority, TransactionResult
 from gateway.engine.mirror import StateMirror
 from gateway.engine.wire import Channel, Kind, decode_error, encode, read_message
 from gateway.protocol.models import Command
+from gateway.protocol.program import Program
 
 __all__ = ["SchedulerProxy", "WorkerClient"]
 
@@ -65,15 +66,37 @@ class SchedulerProxy:
     ) -> TransactionResult:
         """Run ``commands`` on controller ``body`` in the worker (``LoopScheduler.submit``)."""
         cmds = (commands,) if isinstance(commands, Command) else tuple(commands)
-        return await self.client.request(
-            self.name, (Kind.SUBMIT, self.name, body, cmds, priority, motor, deadline)
-        )
+        message = (Kind.SUBMIT, self.name, body, cmds, priority, motor, deadline)
+        result: TransactionResult = await self.client.request(self.name, message)
+        return result
 
     async def stop(self, body: str, command: Command | None = None) -> TransactionResult:
         """Send a stop on the stop channel (``LoopScheduler.stop``)."""
-        return await self.client.request(
-            self.name, (Kind.STOP, self.name, body, command), urgent=True
-        )
+        message = (Kind.STOP, self.name, body, command)
+        result: TransactionResult = await self.client.request(self.name, message, urgent=True)
+        return result
+
+    async def upload_program(
+        self,
+        body: str,
+        program: Program,
+        *,
+        priority: Priority = Priority.OPERATOR,
+        deadline: float | None = None,
+    ) -> TransactionResult:
+        """Upload ``program`` in the worker (``LoopScheduler.upload_program``)."""
+        message = (Kind.UPLOAD, self.name, body, program, priority, deadline)
+        result: TransactionResult = await self.client.request(self.name, message)
+        return result
+
+    def reopen_at(self, baud: int) -> None:
+        """Reopen the worker's line at ``baud`` (``LoopScheduler.reopen_at``): the link's
+        loss and return come back as events."""
+        self.client.tell((Kind.REOPEN, self.name, baud))
+
+    async def polling(self, on: bool) -> None:
+        """Start or stop the loop's poller in the worker (stopped: no poll in flight)."""
+        await self.client.request(self.name, (Kind.POLLING, self.name, on))
 
     def snapshot(self) -> CountersSnapshot:
         """The loop's counters as of its latest transaction in the worker."""
@@ -92,7 +115,7 @@ class WorkerClient:
         self.mirror = mirror
         self.proxies = {loop: SchedulerProxy(self, loop) for loop in loops}
         self._ids = itertools.count(1)
-        self._waiting: dict[int, tuple[str, asyncio.Future[TransactionResult]]] = {}
+        self._waiting: dict[int, tuple[str, asyncio.Future[Any]]] = {}
         self._writers: tuple[asyncio.StreamWriter, asyncio.StreamWriter] | None = None
         self._readers: list[asyncio.Task[None]] = []
         #: set when the first snapshot of the current attachment is in
@@ -151,16 +174,20 @@ class WorkerClient:
                     )
                 )
 
-    async def request(
-        self, loop: str, message: tuple[Any, ...], *, urgent: bool = False
-    ) -> TransactionResult:
+    def tell(self, message: tuple[Any, ...]) -> None:
+        """Send ``message`` on the request channel, no answer awaited (none when detached:
+        a new worker starts from its configuration)."""
+        if self._writers is not None:
+            self._writers[0].write(encode(message))
+
+    async def request(self, loop: str, message: tuple[Any, ...], *, urgent: bool = False) -> Any:
         """Send ``message`` (its kind, then its fields after the request's number) and await
         the worker's answer."""
         writers = self._writers
         if writers is None:
             raise self.proxies[loop].down_error()
         rid = next(self._ids)
-        future: asyncio.Future[TransactionResult] = asyncio.get_running_loop().create_future()
+        future: asyncio.Future[Any] = asyncio.get_running_loop().create_future()
         self._waiting[rid] = (loop, future)
         writers[1 if urgent else 0].write(encode((message[0], rid, *message[1:])))
         try:

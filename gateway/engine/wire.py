@@ -23,6 +23,7 @@ from types import MappingProxyType
 from typing import Any
 
 from gateway.bus.requests import BusError, DeadlineExpired, LoopDown, TransactionError
+from gateway.errors import GatewayError
 from gateway.protocol.models import Command
 from gateway.protocol.registry import parse
 
@@ -69,12 +70,46 @@ def command_of(text: str, model: str) -> Command:
     return command
 
 
+@functools.lru_cache(maxsize=4096)
+def _parses_back(text: str, model: str) -> bool:
+    """True when ``text`` parses as the model ``model`` outside a program (a program's own
+    statements, ``/`` waits among them, do not)."""
+    try:
+        return type(parse(text)).__name__ == model
+    except (GatewayError, ValueError):
+        return False
+
+
+def _command_models() -> dict[str, type[Command]]:
+    found: dict[str, type[Command]] = {}
+    pending = [Command]
+    while pending:
+        for cls in pending.pop().__subclasses__():
+            found[cls.__name__] = cls
+            pending.append(cls)
+    return found
+
+
+_MODELS: dict[str, type[Command]] = {}
+
+
+def model_of(model: str, fields: dict[str, Any]) -> Command:
+    """A command that its text does not name alone, from its model's name and fields (pickle
+    names this function): the fields are those of a model that was valid when sent."""
+    if model not in _MODELS:
+        _MODELS.update(_command_models())
+    return _MODELS[model].model_construct(**fields)
+
+
 class _Pickler(pickle.Pickler):
     dispatch_table = _REDUCERS
 
     def reducer_override(self, obj: Any) -> Any:
         if isinstance(obj, Command):
-            return command_of, (obj.wire(), type(obj).__name__)
+            text, model = obj.wire(), type(obj).__name__
+            if _parses_back(text, model):
+                return command_of, (text, model)
+            return model_of, (model, dict(obj))
         return NotImplemented
 
 
@@ -84,6 +119,9 @@ class Kind(StrEnum):
     START = "start"  # client, first: (START, [LoopSpec, ...]) the loops to run
     SUBMIT = "submit"  # client: (SUBMIT, rid, loop, body, commands, priority, motor, deadline)
     STOP = "stop"  # client, stop channel: (STOP, rid, loop, body, command)
+    UPLOAD = "upload"  # client: (UPLOAD, rid, loop, body, Program, priority, deadline)
+    REOPEN = "reopen"  # client: (REOPEN, loop, baud) the line at another rate, no answer
+    POLLING = "polling"  # client: (POLLING, rid, loop, on) start or stop the loop's poller
     RESYNC = "resync"  # client: (RESYNC,) send a snapshot again (a change was missed)
     SNAPSHOT = "snapshot"  # worker: (SNAPSHOT, Snapshot, {loop: (LinkState, cause)})
     CHANGE = "change"  # worker: (CHANGE, Change)

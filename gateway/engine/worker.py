@@ -20,6 +20,7 @@ from collections.abc import Callable, Mapping
 from typing import Any
 
 from gateway.bus.events import BusEvent
+from gateway.bus.poller import Poller
 from gateway.bus.requests import TransactionError
 from gateway.bus.scheduler import LoopScheduler
 from gateway.bus.state import StateCache
@@ -33,9 +34,15 @@ log = logging.getLogger("gateway.engine")
 class LineWorker:
     """The loops of one worker, served to one client at a time."""
 
-    def __init__(self, schedulers: Mapping[str, LoopScheduler], state: StateCache) -> None:
+    def __init__(
+        self,
+        schedulers: Mapping[str, LoopScheduler],
+        state: StateCache,
+        pollers: Mapping[str, Poller] | None = None,
+    ) -> None:
         self.schedulers = dict(schedulers)
         self.state = state
+        self.pollers = dict(pollers or {})
         self._tasks: set[asyncio.Task[None]] = set()
 
     def links(self) -> dict[str, tuple[Any, ...]]:
@@ -66,8 +73,10 @@ class LineWorker:
             while (message := await read_message(reader)) is not None:
                 if message[0] == Kind.RESYNC:
                     send((Kind.SNAPSHOT, self.state.snapshot(), self.links()))
-                elif message[0] == Kind.SUBMIT:
+                elif message[0] in (Kind.SUBMIT, Kind.UPLOAD, Kind.POLLING):
                     self._spawn(self._submit(message, send))
+                elif message[0] == Kind.REOPEN:
+                    self._scheduler(message[1]).reopen_at(message[2])
                 else:
                     log.error("line worker: unknown request %r", message[0])
         finally:
@@ -116,15 +125,36 @@ class LineWorker:
     async def _submit(
         self, message: tuple[Any, ...], send: Callable[[tuple[Any, ...]], None]
     ) -> None:
-        _, rid, loop, body, commands, priority, motor, deadline = message
+        rid, loop = message[1], message[2]
+        result: object
         try:
-            result = await self._scheduler(loop).submit(
-                body, commands, priority=priority, motor=motor, deadline=deadline
-            )
+            scheduler = self._scheduler(loop)
+            if message[0] == Kind.SUBMIT:
+                _, _, _, body, commands, priority, motor, deadline = message
+                result = await scheduler.submit(
+                    body, commands, priority=priority, motor=motor, deadline=deadline
+                )
+            elif message[0] == Kind.UPLOAD:
+                _, _, _, body, program, priority, deadline = message
+                result = await scheduler.upload_program(
+                    body, program, priority=priority, deadline=deadline
+                )
+            else:
+                await self._polling(loop, on=message[3])
+                result = None
         except Exception as exc:
             send((Kind.ERROR, rid, encode_error(exc)))
         else:
             send((Kind.RESULT, rid, result))
+
+    async def _polling(self, loop: str, *, on: bool) -> None:
+        poller = self.pollers.get(loop)
+        if poller is None:
+            raise TransactionError(f"loop {loop!r} has no poller in this worker")
+        if on:
+            poller.start()
+        else:
+            await poller.stop()
 
     async def _stop(
         self, message: tuple[Any, ...], send: Callable[[tuple[Any, ...]], None]

@@ -1,6 +1,7 @@
 """Fixtures of the line worker tests: a worker on the in-process simulator, and its client.
 
-``attach(bus)`` serves the bus's scheduler and state cache from a ``LineWorker`` over two
+``attach(bus)`` serves the bus's scheduler, state cache and a poller of controller 1 (not
+started: a test starts it through the channel) from a ``LineWorker`` over two
 socketpairs (the channels a worker process has) and returns the ``WorkerClient`` of the API
 side, synced (its mirror holds the first snapshot). Both ends run on the test's event loop:
 what crosses is what crosses between processes, bytes on a socket.
@@ -15,6 +16,8 @@ from collections.abc import AsyncIterator, Awaitable, Callable
 
 import pytest
 
+from gateway.bus.poll_plan import PollConfig
+from gateway.bus.poller import attach as attach_poller
 from gateway.engine.mirror import StateMirror
 from gateway.engine.proxy import WorkerClient
 from gateway.engine.wire import Channel
@@ -64,7 +67,11 @@ async def attach() -> AsyncIterator[Attach]:
     made: list[Linked] = []
 
     async def make(bus: Bus) -> Linked:
-        worker = LineWorker({bus.scheduler.name: bus.scheduler}, bus.scheduler.state_cache)
+        state = bus.scheduler.state_cache
+        poller = attach_poller(bus.scheduler, state, ["1"], PollConfig())
+        worker = LineWorker(
+            {bus.scheduler.name: bus.scheduler}, state, {bus.scheduler.name: poller}
+        )
         client = WorkerClient("w0", [bus.scheduler.name], StateMirror())
         linked = Linked(bus, worker, client)
         made.append(linked)

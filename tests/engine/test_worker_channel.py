@@ -14,10 +14,12 @@ import dataclasses
 
 import pytest
 
+from gateway.bus.events import BusEvent, LinkDown
 from gateway.bus.lifecycle import LinkState
 from gateway.bus.requests import LoopDown, Outcome, TransactionError
 from gateway.bus.state_types import AxisState, ControllerState
 from gateway.engine.wire import Kind, encode
+from gateway.protocol.program import parse_program
 from gateway.protocol.registry import parse
 from tests.engine.conftest import Attach, MakeBus
 from tests.state_waits import until_state
@@ -134,3 +136,48 @@ async def test_the_loop_counters_cross_with_each_transaction(
     assert proxy.snapshot().transactions == before + 2
     assert proxy.snapshot() == bus.scheduler.snapshot()
     assert proxy.queue_depth == 0
+
+
+async def test_a_program_upload_goes_through_the_worker(make_bus: MakeBus, attach: Attach) -> None:
+    bus = await make_bus("1", upload_chunk=16)
+    linked = await attach(bus)
+    proxy = linked.client.proxies[bus.scheduler.name]
+    program = parse_program("//22000//3//T10//4//?//T10//5//?//END")
+    result = await proxy.upload_program("1", program)
+    assert result.outcome is Outcome.DONE
+    assert bus.controller("1").rt.program  # the simulated controller holds it
+
+
+async def test_the_poller_is_started_and_stopped_through_the_worker(
+    make_bus: MakeBus, attach: Attach
+) -> None:
+    bus = await make_bus("1")
+    linked = await attach(bus)
+    proxy = linked.client.proxies[bus.scheduler.name]
+    mirror = linked.client.mirror
+    assert mirror.controller(proxy.name, "1").online is None  # nobody polled it yet
+    await proxy.polling(True)
+    await until_state(mirror, lambda: mirror.controller(proxy.name, "1").online is True, 5.0)
+    await proxy.polling(False)
+    assert linked.worker.pollers[proxy.name]._task is None  # stopped, nothing in flight
+
+
+async def test_a_reopen_at_another_rate_comes_back_as_the_link_events(
+    make_bus: MakeBus, attach: Attach
+) -> None:
+    bus = await make_bus("1")
+    linked = await attach(bus)
+    proxy = linked.client.proxies[bus.scheduler.name]
+    downs: list[LinkDown] = []
+    seen = asyncio.Event()
+
+    def note(event: BusEvent) -> None:
+        if isinstance(event, LinkDown):
+            downs.append(event)
+            seen.set()
+
+    proxy.events.subscribe(note)
+    proxy.reopen_at(4800)
+    await asyncio.wait_for(seen.wait(), 5.0)
+    assert "4800" in downs[0].cause
+    assert bus.scheduler.timing.baud == 4800
