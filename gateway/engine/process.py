@@ -1,0 +1,72 @@
+"""A line worker process: ``python -m gateway.engine.process REQUESTS_FD STOPS_FD``.
+
+Started by a ``WorkerSupervisor`` with the two channel sockets inherited at those file
+descriptors. The first message on the request channel is ``(START, [LoopSpec, ...])``; the
+worker opens each loop's line, starts its scheduler and poller, serves the client until it
+closes the request channel (the API process stopped, or went away), then lets each loop's
+transaction in flight finish and closes the lines.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import socket
+import sys
+
+from gateway.bus.poller import Poller, attach
+from gateway.bus.scheduler import LoopScheduler
+from gateway.bus.state import StateCache
+from gateway.engine.spec import LoopSpec
+from gateway.engine.wire import Channel, Kind, read_message
+from gateway.engine.worker import LineWorker
+from gateway.transport.factory import open_transport
+
+__all__ = ["run_worker"]
+
+log = logging.getLogger("gateway.engine")
+
+#: Real seconds a worker lets a transaction in flight finish when its client has gone.
+DRAIN_SECONDS = 5.0
+
+
+async def _channel(fd: int) -> Channel:
+    return await asyncio.open_connection(sock=socket.socket(fileno=fd))
+
+
+async def run_worker(requests_fd: int, stops_fd: int) -> None:
+    """Serve the loops the first message names, until the client goes away."""
+    requests, stops = await _channel(requests_fd), await _channel(stops_fd)
+    start = await read_message(requests[0])
+    if start is None:
+        return  # the client went away before saying what to run
+    if start[0] != Kind.START:
+        raise SystemExit(f"line worker: the first message is {start[0]!r}, not {Kind.START!r}")
+    specs: list[LoopSpec] = start[1]
+    state = StateCache()
+    schedulers: dict[str, LoopScheduler] = {}
+    pollers: dict[str, Poller] = {}
+    for spec in specs:
+        scheduler = LoopScheduler(open_transport(spec.url, spec.baud), spec.config)
+        schedulers[spec.name] = scheduler
+        pollers[spec.name] = attach(scheduler, state, spec.bodies, spec.poll)
+    await asyncio.gather(*(s.start() for s in schedulers.values()))
+    for poller in pollers.values():
+        poller.start()
+    try:
+        await LineWorker(schedulers, state, pollers).serve(requests, stops)
+    finally:
+        await asyncio.gather(*(p.stop() for p in pollers.values()))
+        await asyncio.gather(*(s.close(drain=DRAIN_SECONDS) for s in schedulers.values()))
+
+
+def main() -> None:
+    """The worker's entry point (see the module)."""
+    logging.basicConfig(
+        level=logging.INFO, format="%(asctime)s %(levelname)s %(name)s [worker]: %(message)s"
+    )
+    asyncio.run(run_worker(int(sys.argv[1]), int(sys.argv[2])))
+
+
+if __name__ == "__main__":
+    main()

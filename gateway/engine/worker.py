@@ -1,0 +1,168 @@
+"""The worker's end: the schedulers and state cache of its loops, served over two channels.
+
+``LineWorker(schedulers, state).serve(requests, stops)`` sends a snapshot of the state cache
+and every loop's link, then every change of the cache (numbered: the client notices a gap
+and asks again) and every bus event; it runs each request as a task of its own (the
+scheduler orders them by priority, as it does for callers in its own process) and answers
+on the channel the request came on. The stop channel is read by a task of its own, so a
+stop reaches the scheduler as soon as its bytes are in, whatever the request channel holds.
+
+``serve`` returns when the request channel closes (the client went away); the loops keep
+running, and a client that connects again gets a fresh snapshot.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+from collections.abc import Callable, Mapping
+from typing import Any
+
+from gateway.bus.events import BusEvent
+from gateway.bus.poller import Poller
+from gateway.bus.requests import TransactionError
+from gateway.bus.scheduler import LoopScheduler
+from gateway.bus.state import StateCache
+from gateway.engine.wire import Channel, Kind, encode, encode_error, read_message
+
+__all__ = ["LineWorker"]
+
+log = logging.getLogger("gateway.engine")
+
+
+class LineWorker:
+    """The loops of one worker, served to one client at a time."""
+
+    def __init__(
+        self,
+        schedulers: Mapping[str, LoopScheduler],
+        state: StateCache,
+        pollers: Mapping[str, Poller] | None = None,
+    ) -> None:
+        self.schedulers = dict(schedulers)
+        self.state = state
+        self.pollers = dict(pollers or {})
+        self._tasks: set[asyncio.Task[None]] = set()
+
+    def links(self) -> dict[str, tuple[Any, ...]]:
+        """Every loop's link state, cause, queue depth, counters and adapter report, as the
+        snapshot carries them."""
+        return {
+            name: (s.state.value, s.cause, s.queue_depth, s.snapshot(), s.transport.adapter)
+            for name, s in self.schedulers.items()
+        }
+
+    async def serve(self, requests: Channel, stops: Channel) -> None:
+        """Serve one client until it closes the request channel."""
+        reader, writer = requests
+        stop_reader, stop_writer = stops
+
+        def send(message: tuple[Any, ...]) -> None:
+            if not writer.is_closing():
+                writer.write(encode(message))
+
+        send((Kind.SNAPSHOT, self.state.snapshot(), self.links()))
+        unsubscribe: list[Callable[[], None]] = [
+            self.state.changes.subscribe(lambda change: send((Kind.CHANGE, change)))
+        ]
+        for name, scheduler in self.schedulers.items():
+            unsubscribe.append(scheduler.events.subscribe(self._relay(name, scheduler, send)))
+        stop_task = asyncio.create_task(self._read_stops(stop_reader, stop_writer))
+        try:
+            while (message := await read_message(reader)) is not None:
+                if message[0] == Kind.RESYNC:
+                    send((Kind.SNAPSHOT, self.state.snapshot(), self.links()))
+                elif message[0] in (Kind.SUBMIT, Kind.UPLOAD, Kind.POLLING):
+                    self._spawn(self._submit(message, send))
+                elif message[0] == Kind.REOPEN:
+                    self._scheduler(message[1]).reopen_at(message[2])
+                else:
+                    log.error("line worker: unknown request %r", message[0])
+        finally:
+            for undo in unsubscribe:
+                undo()
+            stop_task.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await stop_task
+            for task in list(self._tasks):
+                task.cancel()
+            writer.close()
+            stop_writer.close()
+
+    def _relay(
+        self, name: str, scheduler: LoopScheduler, send: Callable[[tuple[Any, ...]], None]
+    ) -> Callable[[BusEvent], None]:
+        def relay(event: BusEvent) -> None:
+            # the link as of the event: the client's proxy reads it without asking
+            send((Kind.EVENT, name, event, scheduler.state.value, scheduler.cause,
+                  scheduler.queue_depth))  # fmt: skip
+
+        return relay
+
+    async def _read_stops(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+        def send(message: tuple[Any, ...]) -> None:
+            if not writer.is_closing():
+                writer.write(encode(message))
+
+        while (message := await read_message(reader)) is not None:
+            if message[0] == Kind.STOP:
+                self._spawn(self._stop(message, send))
+            else:
+                log.error("line worker: %r on the stop channel", message[0])
+
+    def _spawn(self, work: Any) -> None:
+        task = asyncio.create_task(work)
+        self._tasks.add(task)
+        task.add_done_callback(self._tasks.discard)
+
+    def _scheduler(self, loop: str) -> LoopScheduler:
+        scheduler = self.schedulers.get(loop)
+        if scheduler is None:
+            raise TransactionError(f"loop {loop!r} is not served by this worker")
+        return scheduler
+
+    async def _submit(
+        self, message: tuple[Any, ...], send: Callable[[tuple[Any, ...]], None]
+    ) -> None:
+        rid, loop = message[1], message[2]
+        result: object
+        try:
+            scheduler = self._scheduler(loop)
+            if message[0] == Kind.SUBMIT:
+                _, _, _, body, commands, priority, motor, deadline = message
+                result = await scheduler.submit(
+                    body, commands, priority=priority, motor=motor, deadline=deadline
+                )
+            elif message[0] == Kind.UPLOAD:
+                _, _, _, body, program, priority, deadline = message
+                result = await scheduler.upload_program(
+                    body, program, priority=priority, deadline=deadline
+                )
+            else:
+                await self._polling(loop, on=message[3])
+                result = None
+        except Exception as exc:
+            send((Kind.ERROR, rid, encode_error(exc)))
+        else:
+            send((Kind.RESULT, rid, result))
+
+    async def _polling(self, loop: str, *, on: bool) -> None:
+        poller = self.pollers.get(loop)
+        if poller is None:
+            raise TransactionError(f"loop {loop!r} has no poller in this worker")
+        if on:
+            poller.start()
+        else:
+            await poller.stop()
+
+    async def _stop(
+        self, message: tuple[Any, ...], send: Callable[[tuple[Any, ...]], None]
+    ) -> None:
+        _, rid, loop, body, command = message
+        try:
+            result = await self._scheduler(loop).stop(body, command)
+        except Exception as exc:
+            send((Kind.ERROR, rid, encode_error(exc)))
+        else:
+            send((Kind.RESULT, rid, result))

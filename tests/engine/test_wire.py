@@ -1,0 +1,50 @@
+"""What crosses the worker channel comes out as it went in: commands (a program's own
+statements too, which their text alone does not name), read-only records, the bus's errors."""
+
+from __future__ import annotations
+
+import pickle
+from types import MappingProxyType
+from typing import Any
+
+from gateway.bus.requests import DeadlineExpired, LoopDown
+from gateway.bus.state_types import Change
+from gateway.engine.wire import Kind, decode_error, encode, encode_error
+from gateway.protocol.program import parse_program
+from gateway.protocol.registry import parse
+
+
+def _across(message: tuple[Any, ...]) -> tuple[Any, ...]:
+    frame = encode(message)
+    assert int.from_bytes(frame[:4], "big") == len(frame) - 4
+    decoded: tuple[Any, ...] = pickle.loads(frame[4:])
+    return decoded
+
+
+def test_a_program_crosses_whole() -> None:
+    program = parse_program("//22000//3//T10//4//?//T10//5//?//END")
+    (_, crossed) = _across((Kind.UPLOAD, program))
+    assert crossed == program
+    assert [type(s.command) for s in crossed.statements] == [
+        type(s.command) for s in program.statements
+    ]
+
+
+def test_a_command_and_a_change_cross_equal() -> None:
+    change = Change(3, 1.5, "main", "1", 2, MappingProxyType({"position": -5}))
+    _, command, crossed = _across((Kind.SUBMIT, parse("OH4000"), change))
+    assert command == parse("OH4000") and command.wire() == "OH4000"
+    assert crossed == change and isinstance(crossed.values, MappingProxyType)
+
+
+def test_the_bus_errors_keep_their_class_message_and_fields() -> None:
+    down = LoopDown("main", "the cable", retry_after=2.5, in_flight=True)
+    again = decode_error(_across((Kind.ERROR, 1, encode_error(down)))[2])
+    assert type(again) is LoopDown and str(again) == str(down)
+    assert (again.loop, again.cause, again.retry_after, again.in_flight) == (
+        "main", "the cable", 2.5, True,
+    )  # fmt: skip
+    late = DeadlineExpired("main", "1", 0.5, 7)
+    assert str(decode_error(encode_error(late))) == str(late)
+    other = decode_error(encode_error(KeyError("x")))
+    assert "KeyError" in str(other)
