@@ -157,9 +157,7 @@ async def test_an_answer_without_acting_takes_the_record_away_so_a_retry_acts() 
     try:
         async with _client(store, acts) as client:
             key = {"Idempotency-Key": "run-3"}
-            refused = await client.post(
-                "/controllers/stage/program/run?status=409", headers=key
-            )
+            refused = await client.post("/controllers/stage/program/run?status=409", headers=key)
             assert refused.status_code == 409
             seen = acts.seen[0]
             assert seen is not None and seen.in_progress
