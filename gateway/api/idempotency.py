@@ -1,6 +1,6 @@
-"""``Idempotency-Key``: a retried POST returns the first result instead of acting again.
+"""``Idempotency-Key``: a retried POST or PUT returns the first result instead of acting again.
 
-An ASGI middleware, so it covers every POST route of the app. The first response to a key is
+An ASGI middleware, so it covers every POST and PUT route of the app. The first response to a key is
 stored per client (the ``Authorization`` header, hashed: one token, one client), key, method
 and path, with a hash of the query and body; a retry with the same key:
 
@@ -24,6 +24,15 @@ is written before it is sent. A retry that finds no key in memory looks there: a
 response is replayed; a key whose request was cut short by a crash answers its operation as
 it stands now (200 ``done``, 202 still running, the motion problem when it ``failed`` or is
 ``unknown``), replayed, and nothing acts again.
+
+Every keyed request is written ``in progress`` to the state store before it is handed to its
+route (``begin_key``), so the record is on disk before anything can act; when that write
+fails the request is refused ``503`` with ``Retry-After`` and nothing acts (a stop passes all
+the same: stopping twice is harmless, not stopping is not). A response after which nothing
+was done takes the record away again. A retry after a restart that finds the record still
+``in progress`` (the process died between acting and answering) is answered ``409``
+``idempotency-outcome-unknown``, replayed, and nothing acts again
+(``gateway.api.idempotency_answers``).
 """
 
 from __future__ import annotations
@@ -37,19 +46,23 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from fastapi import FastAPI
-from fastapi.responses import JSONResponse
-from starlette.routing import NoMatchFound
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
-from gateway.api.motion_problems import motion_problem
+from gateway.api.audit_ahead import STOP_ACTIONS
+from gateway.api.idempotency_answers import (
+    HEADER,
+    REPLAYED_HEADER,
+    answer_operation,
+    answer_outcome_unknown,
+    refuse_unrecorded,
+)
 from gateway.api.problems import Problem, problem_response, problem_type
-from gateway.errors import NotFoundError
-from gateway.service.operations.registry import Operations
-from gateway.service.operations.types import OperationState
 from gateway.service.store.database import StateStore
 from gateway.service.store.records import (
     RequestKey,
     StoredKey,
+    begin_key,
+    drop_pending_key,
     load_key,
     request_key,
     save_response,
@@ -65,8 +78,8 @@ __all__ = [
 
 log = logging.getLogger("gateway.api")
 
-HEADER = "Idempotency-Key"
-REPLAYED_HEADER = "Idempotent-Replayed"
+#: The methods whose keyed requests are kept: the ones that act.
+KEYED_METHODS = frozenset({"POST", "PUT"})
 #: Keys are opaque to the gateway: printable ASCII, at most this long (a UUID is 36).
 MAX_KEY_LENGTH = 255
 
@@ -158,7 +171,7 @@ def _invalid(detail: str, rule: str) -> Problem:
 
 
 class IdempotencyMiddleware:
-    """Replays the stored response of a POST retried with the same ``Idempotency-Key``."""
+    """Replays the stored response of a POST or PUT retried with the same ``Idempotency-Key``."""
 
     def __init__(self, app: ASGIApp, store: IdempotencyStore, durable: StateStore) -> None:
         self.app = app
@@ -166,8 +179,8 @@ class IdempotencyMiddleware:
         self.durable = durable
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
-        """Serve one ASGI connection: POSTs with a key are stored or replayed."""
-        if scope["type"] != "http" or scope.get("method") != "POST":
+        """Serve one ASGI connection: POSTs and PUTs with a key are stored or replayed."""
+        if scope["type"] != "http" or scope.get("method") not in KEYED_METHODS:
             await self.app(scope, receive, send)
             return
         key = _header(scope, b"idempotency-key")
@@ -183,7 +196,7 @@ class IdempotencyMiddleware:
             return
         body, more = await _read_body(receive)
         client = hashlib.sha256((_header(scope, b"authorization") or "").encode()).hexdigest()
-        ident = (client, key, "POST", str(scope.get("path", "")))
+        ident = (client, key, str(scope["method"]), str(scope.get("path", "")))
         digest = hashlib.sha256(scope.get("query_string", b"") + b"\x00" + body).hexdigest()
         durable_key = RequestKey.of(ident, digest, self.store.now())
         entry = self.store.get(ident)
@@ -202,8 +215,10 @@ class IdempotencyMiddleware:
                     await _send(send, stored.status, stored.headers, stored.body)
                     return
                 if stored.operation is not None:
-                    await _answer_operation(scope, receive, send, stored.operation)
+                    await answer_operation(scope, receive, send, stored.operation)
                     return
+                await answer_outcome_unknown(scope, receive, send, key, stored.created)
+                return
         while entry is not None:
             if entry.fingerprint != digest:
                 problem = _invalid(
@@ -217,15 +232,40 @@ class IdempotencyMiddleware:
                 await _replay(entry, send)
                 return
             entry = self.store.get(ident)  # the first was not stored: this one acts
-        entry = self.store.begin(ident, digest)
-        token = request_key.set(durable_key)
+        entry = self.store.begin(ident, digest)  # a retry from now on waits for this one
+        answered = False
         try:
-            await self._first(scope, _replaying(more, receive), send, entry, durable_key)
+            refused = await self._begin(durable_key, scope)
+            if refused is not None:
+                await refuse_unrecorded(scope, receive, send, key, refused)
+                return
+            token = request_key.set(durable_key)
+            try:
+                answered = await self._first(
+                    scope, _replaying(more, receive), send, entry, durable_key
+                )
+            finally:
+                request_key.reset(token)
         finally:
-            request_key.reset(token)
             if entry.status is None:
+                if answered:  # answered without acting: a retry may act
+                    self.durable.post(lambda c: drop_pending_key(c, durable_key))
+                # (queued before any retry's read of the key: the store's one thread)
                 self.store.forget(ident, entry)
             entry.done.set()
+
+    async def _begin(self, key: RequestKey, scope: Scope) -> str | None:
+        """Write ``key`` ``in progress`` before its request may act; why it could not be
+        written, when it must be refused (a stop is never refused for it)."""
+        try:
+            await self.durable.run(lambda c: begin_key(c, key))
+        except Exception as exc:
+            log.error("idempotency: a key cannot be recorded before its request: %s", exc)
+            path = str(scope.get("path", "")).rstrip("/")
+            if path.rsplit("/", 1)[-1] in STOP_ACTIONS:
+                return None
+            return str(exc) or type(exc).__name__
+        return None
 
     async def _stored(self, key: RequestKey) -> StoredKey | None:
         try:
@@ -237,25 +277,30 @@ class IdempotencyMiddleware:
 
     async def _first(
         self, scope: Scope, receive: Receive, send: Send, entry: Entry, key: RequestKey
-    ) -> None:
+    ) -> bool:
+        """Serve the first request of a key; whether its response was given whole."""
+        answered = False
         status = 0
         headers: list[tuple[bytes, bytes]] = []
         chunks: list[bytes] = []
 
         async def capture(message: Message) -> None:
-            nonlocal status, headers
+            nonlocal status, headers, answered
             if message["type"] == "http.response.start":
                 status = int(message["status"])
                 headers = list(message.get("headers", []))
             elif message["type"] == "http.response.body":
                 chunks.append(bytes(message.get("body", b"")))
-                if not message.get("more_body", False) and _stored(status, headers):
-                    entry.headers, entry.body = headers, b"".join(chunks)
-                    entry.status = status
-                    await self._keep(key, entry)
+                if not message.get("more_body", False):
+                    answered = True
+                    if _stored(status, headers):
+                        entry.headers, entry.body = headers, b"".join(chunks)
+                        entry.status = status
+                        await self._keep(key, entry)
             await send(message)
 
         await self.app(scope, receive, capture)
+        return answered
 
     async def _keep(self, key: RequestKey, entry: Entry) -> None:
         """The response on disk before the client has it: a retry after a restart gets it."""
@@ -265,39 +310,6 @@ class IdempotencyMiddleware:
             await self.durable.run(lambda c: save_response(c, key, status, headers, body))
         except Exception as exc:  # it has acted already: answer all the same, and say so
             log.error("idempotency: the response to a key was not stored: %s", exc)
-
-
-async def _answer_operation(scope: Scope, receive: Receive, send: Send, ident: str) -> None:
-    """The operation a key's request started before the process stopped, as it stands."""
-    operations: Operations = scope["app"].state.operations
-    try:
-        op = operations.get(ident)
-    except NotFoundError:
-        problem = Problem(
-            type=problem_type("conflict"),
-            title="Conflict",
-            status=409,
-            detail=f"{HEADER}: its request started operation {ident}, which is no longer "
-            "retained; nothing was done again",
-            field=f"header.{HEADER}",
-        )
-        response = problem_response(problem)
-    else:
-        try:
-            location = str(scope["app"].url_path_for("get_operation", id=op.id))
-        except NoMatchFound:
-            location = f"/api/v1/operations/{op.id}"
-        view = op.view()
-        if op.final and op.state is not OperationState.DONE:
-            raised = motion_problem(view, location)
-            response = problem_response(raised.problem, None, raised.headers)
-        else:
-            status = 200 if op.state is OperationState.DONE else 202
-            response = JSONResponse(
-                view.model_dump(mode="json"), status_code=status, headers={"Location": location}
-            )
-    response.headers[REPLAYED_HEADER] = "true"
-    await response(scope, receive, send)
 
 
 async def _read_body(receive: Receive) -> tuple[bytes, list[Message]]:
@@ -347,8 +359,8 @@ def install_idempotency(
     ttl: float = 86_400.0,
     clock: Callable[[], float] = time.time,
 ) -> IdempotencyStore:
-    """Make every POST of ``app`` honour ``Idempotency-Key``; the store (``app.state.idempotency``),
-    backed by ``durable`` (the state store) across restarts.
+    """Make every POST and PUT of ``app`` honour ``Idempotency-Key``; the store
+    (``app.state.idempotency``), backed by ``durable`` (the state store) across restarts.
 
     Install it after ``install_problem_handlers`` and before the audit middleware, so that a
     replay is audited too and the replayed response is the first one as the client saw it.

@@ -7,7 +7,7 @@ Client generators turn the document into code, so its names become the integrato
   a route whose name is not in ``OPERATION_IDS`` gets its name in camelCase;
 * tags by resource, from the path (``TAGS``): health and metrics apart from the motion
   operations, leases and programs apart from the axes and controllers they belong to;
-* ``Idempotency-Key`` declared on every POST, which the idempotency middleware honours;
+* ``Idempotency-Key`` declared on every POST and PUT, which the idempotency middleware honours;
 * ``x-enum-varnames`` on every enum: the Python member names where the enum is a Python enum,
   else names made from the values (``+`` -> ``PLUS``, ``1`` of ``Motor`` -> ``MOTOR_1``).
 
@@ -110,8 +110,10 @@ def _idempotency_parameter() -> dict[str, Any]:
         "name": HEADER,
         "in": "header",
         "required": False,
-        "description": "Retry safely: a POST repeated with the same key (same body and query) "
-        "returns the first answer with `Idempotent-Replayed: true` instead of acting again",
+        "description": "Retry safely: a POST or PUT repeated with the same key (same body and "
+        "query) returns the first answer with `Idempotent-Replayed: true` instead of acting "
+        "again; when the gateway stopped before the first answer was recorded, the retry is "
+        "409 `idempotency-outcome-unknown` (it may have acted: check, do not repeat blindly)",
         "schema": {"type": "string", "pattern": f"^[ -~]{{1,{MAX_KEY_LENGTH}}}$"},
     }
 
@@ -163,7 +165,7 @@ def document_for_integrators(schema: dict[str, Any]) -> None:
             if tag is not None:
                 operation["tags"] = [tag]
             used.update(operation.get("tags", []))
-            if method == "post":
+            if method in ("post", "put"):
                 parameters = operation.setdefault("parameters", [])
                 if not any(p.get("name") == HEADER for p in parameters):
                     parameters.append(_idempotency_parameter())

@@ -8,6 +8,13 @@ crash, a retry with that key finds the operation and never starts another.
 Retention: an operation stays ``OPERATION_RETENTION`` seconds after it ended (one that never
 ended stays until it is resolved); a key stays ``KEY_RETENTION`` seconds after its request.
 ``purge`` drops the rest (at each start).
+
+Every other keyed request is written ``in progress`` (``begin_key``: its fingerprint, no
+operation, no response) before its route acts, and its response replaces that once it is
+ready (``save_response``). A row that is still ``in progress`` after a restart is a request
+whose outcome was never recorded: it may have acted, so a retry must not act again
+(``StoredKey.in_progress``). A response after which nothing was done takes the row away
+(``drop_pending_key``), so a retry may act then.
 """
 
 from __future__ import annotations
@@ -27,6 +34,8 @@ __all__ = [
     "OPERATION_RETENTION",
     "RequestKey",
     "StoredKey",
+    "begin_key",
+    "drop_pending_key",
     "insert_operation",
     "load_key",
     "load_operations",
@@ -75,6 +84,34 @@ class StoredKey:
     status: int | None
     headers: list[tuple[bytes, bytes]]
     body: bytes
+
+    @property
+    def in_progress(self) -> bool:
+        """Accepted, and then neither an operation nor a response was recorded: the request
+        may or may not have acted (the process stopped before it answered)."""
+        return self.operation is None and self.status is None
+
+
+def begin_key(connection: sqlite3.Connection, key: RequestKey) -> None:
+    """Key ``key`` is ``in progress``: on disk before its request acts. It replaces a row
+    of the same ident left past its retention (the caller found no live one)."""
+    connection.execute(
+        "INSERT INTO idempotency_keys (ident, fingerprint, created) VALUES (?, ?, ?) "
+        "ON CONFLICT (ident) DO UPDATE SET fingerprint = excluded.fingerprint, "
+        "created = excluded.created, operation = NULL, status = NULL, headers = NULL, "
+        "body = NULL",
+        (key.ident, key.fingerprint, key.created),
+    )
+
+
+def drop_pending_key(connection: sqlite3.Connection, key: RequestKey) -> None:
+    """Take away the ``in progress`` row of ``key``: its request was answered without acting
+    (refused, 4xx or 503), so a retry may act. A row with an operation or a response stays."""
+    connection.execute(
+        "DELETE FROM idempotency_keys WHERE ident = ? AND created = ? "
+        "AND operation IS NULL AND status IS NULL",
+        (key.ident, key.created),
+    )
 
 
 def insert_operation(
