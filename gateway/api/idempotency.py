@@ -48,7 +48,7 @@ from dataclasses import dataclass, field
 from fastapi import FastAPI
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
-from gateway.api.audit_ahead import STOP_ACTIONS
+from gateway.api.audit_ahead import STOP_ACTIONS, acts
 from gateway.api.idempotency_answers import (
     HEADER,
     REPLAYED_HEADER,
@@ -57,6 +57,7 @@ from gateway.api.idempotency_answers import (
     refuse_unrecorded,
 )
 from gateway.api.problems import Problem, problem_response, problem_type
+from gateway.api.security import principal_of
 from gateway.service.store.database import StateStore
 from gateway.service.store.records import (
     RequestKey,
@@ -193,6 +194,12 @@ class IdempotencyMiddleware:
                 f"{HEADER}: 1-{MAX_KEY_LENGTH} printable ASCII characters",
             )
             await problem_response(problem)(scope, receive, send)
+            return
+        if not acts(principal_of(scope)):
+            # Nobody who may act (no token, a wrong one, a viewer's): the route refuses it.
+            # Nothing is kept for it, on disk or in memory, so keys sent without a token cost
+            # the gateway no write and push no real client's key out of the bounded store.
+            await self.app(scope, receive, send)
             return
         body, more = await _read_body(receive)
         client = hashlib.sha256((_header(scope, b"authorization") or "").encode()).hexdigest()

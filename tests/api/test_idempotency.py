@@ -10,6 +10,7 @@ import pytest
 from fastapi import FastAPI, Response
 
 from gateway.api.idempotency import install_idempotency
+from gateway.api.security import AuthConfig, install_security
 from gateway.api.problems import install_problem_handlers
 from gateway.service.store import StateStore
 from tests.api.sim_app import auth, json_of, running_app
@@ -109,6 +110,7 @@ async def counting() -> AsyncIterator[tuple[httpx.AsyncClient, list[int], Clock]
         response.status_code = status
         return {"calls": len(calls)}
 
+    install_security(app, AuthConfig(no_auth=True))  # anyone may act: keys are kept
     install_problem_handlers(app)
     store = StateStore.memory()
     app.state.idempotency_store = install_idempotency(

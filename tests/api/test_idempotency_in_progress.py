@@ -10,14 +10,17 @@ import contextlib
 from collections.abc import AsyncIterator
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import httpx
 from fastapi import FastAPI, Response
 
 from gateway.api.idempotency import install_idempotency
 from gateway.api.problems import install_problem_handlers
+from gateway.api.security import AuthConfig, install_security
 from gateway.service.store import StateStore
 from gateway.service.store.records import RequestKey, StoredKey, load_key, request_key
+from tests.api.sim_app import auth, running_app
 
 
 @dataclass
@@ -62,6 +65,7 @@ def _app(store: StateStore, acts: Acts) -> FastAPI:
         await act("put")
         return {"puts": acts.calls.count("put")}
 
+    install_security(app, AuthConfig(no_auth=True))  # anyone may act: keys are kept
     install_problem_handlers(app)
     install_idempotency(app, store)
     return app
@@ -178,5 +182,31 @@ async def test_a_keyed_put_is_replayed_and_acts_once() -> None:
             assert first.json() == retry.json() == {"puts": 1}
             assert retry.headers["idempotent-replayed"] == "true"
             assert acts.calls == ["put"]
+    finally:
+        await store.close()
+
+
+async def test_keys_sent_by_someone_who_may_not_act_are_not_kept() -> None:
+    """A flood of keyed requests with a wrong token, or a viewer's, costs the state store no
+    write (each would be a synced transaction): only a request that may act has its key kept."""
+    store = StateStore.memory()
+    move = {"position": 10, "unit": "pulse"}
+
+    def writes() -> Any:
+        return store.run(lambda c: c.total_changes)
+
+    try:
+        async with running_app(("1",), roles=True, store=store) as api:
+            before = await writes()
+            for n, who in enumerate(({"Authorization": "Bearer wrong"}, auth("viewer"))):
+                headers = {**who, "Idempotency-Key": f"flood-{n}"}
+                r = await api.client.post("/axes/x/move", json=move, headers=headers)
+                assert r.status_code in (401, 403), r.text
+            assert await writes() == before
+            headers = {**auth("operator"), "Idempotency-Key": "real-1"}
+            r = await api.client.post("/axes/x/move", json=move, headers=headers)
+            assert r.status_code == 202, r.text
+            kept = "SELECT count(*) FROM idempotency_keys"
+            assert await store.run(lambda c: c.execute(kept).fetchone()[0]) == 1
     finally:
         await store.close()
