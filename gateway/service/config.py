@@ -19,10 +19,7 @@ from pathlib import Path
 from typing import Annotated, Any, Literal, Self
 
 from pydantic import (
-    BaseModel,
-    ConfigDict,
     Field,
-    SecretStr,
     ValidationError,
     model_validator,
 )
@@ -30,9 +27,10 @@ from pydantic_settings import BaseSettings, SettingsConfigDict
 
 from gateway.bus.config import LoopConfig
 from gateway.bus.poll_plan import PollConfig
-from gateway.errors import GatewayError
 from gateway.protocol.framing import BAUD_RATES, BODY_NUMBERS
+from gateway.service.config_base import NAME_PATTERN, ConfigError, Name, Strict
 from gateway.service.config_bounds import UnreadableConfig, listed, read_toml
+from gateway.service.config_faces import MqttSettings, OpcUaSettings
 from gateway.service.roles import Role
 
 __all__ = [
@@ -55,22 +53,7 @@ __all__ = [
     "schema_problems",
 ]
 
-#: Names of loops, controllers and axes: no dots, so a name never reads as an id (`main.1.2`).
-NAME_PATTERN = r"^[A-Za-z][A-Za-z0-9_-]{0,31}$"
-Name = Annotated[str, Field(pattern=NAME_PATTERN)]
-
-
-class ConfigError(GatewayError):
-    """The configuration breaks a rule; the message names every key at fault."""
-
-
-class _Strict(BaseModel):
-    # allow_inf_nan: a NaN limit compares false with everything (a limit silently off), an
-    # infinite scale turns every target into 0 or inf; every float of the file is finite.
-    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
-
-
-class AxisSettings(_Strict):
+class AxisSettings(Strict):
     """One motor of a controller as users see it."""
 
     motor: Literal[1, 2]
@@ -91,7 +74,7 @@ class AxisSettings(_Strict):
         return self
 
 
-class LocalInputSettings(_Strict):
+class LocalInputSettings(Strict):
     """A key switch wired to a general input: while it is active the controller is in local
     control (motion and settings from the network refused, stops accepted). Read with ``C``
     (§10 C form I: the general input port, bit 0-7 = pins 13-20, 1 = ON)."""
@@ -101,7 +84,7 @@ class LocalInputSettings(_Strict):
     active: Literal["on", "off"] = "on"
 
 
-class ControllerSettings(_Strict):
+class ControllerSettings(Strict):
     """One RC-233 on a loop."""
 
     body: str = Field(pattern=f"^[{BODY_NUMBERS}]$", description="body number 0-E (§9-1)")
@@ -124,7 +107,7 @@ def _default(config: type[Any], name: str) -> Any:
     return next(f.default for f in dataclasses.fields(config) if f.name == name)
 
 
-class TimeoutSettings(_Strict):
+class TimeoutSettings(Strict):
     """The scheduler's timing and retry knobs: the fields of ``gateway.bus.config.LoopConfig``
     of the same names, with its defaults; the file may set them within these bounds."""
 
@@ -136,7 +119,7 @@ class TimeoutSettings(_Strict):
     eeprom_write_hold: float = Field(_default(LoopConfig, "eeprom_write_hold"), gt=0, le=60)
 
 
-class PollSettings(_Strict):
+class PollSettings(Strict):
     """Poll periods in seconds: the fields of ``gateway.bus.poll_plan.PollConfig`` of the same
     names, with its defaults; the file may set them within these bounds."""
 
@@ -146,7 +129,7 @@ class PollSettings(_Strict):
     condition_period: float = Field(_default(PollConfig, "condition_period"), gt=0, le=3600)
 
 
-class LoopSettings(_Strict):
+class LoopSettings(Strict):
     """One serial loop (one RC-002 link master)."""
 
     name: Name
@@ -170,7 +153,7 @@ class LoopSettings(_Strict):
         return self
 
 
-class TokenSettings(_Strict):
+class TokenSettings(Strict):
     """One API token: stored as the SHA-256 hex digest of the token, never the token itself."""
 
     name: Name
@@ -178,7 +161,7 @@ class TokenSettings(_Strict):
     sha256: str = Field(pattern=r"^[0-9a-f]{64}$", description="hashlib.sha256(token).hexdigest()")
 
 
-class SecuritySettings(_Strict):
+class SecuritySettings(Strict):
     """Tokens, CORS, and which read-only pages need no token."""
 
     tokens: list[TokenSettings] = Field(default_factory=list)
@@ -205,7 +188,7 @@ class SecuritySettings(_Strict):
         return self
 
 
-class WsSettings(_Strict):
+class WsSettings(Strict):
     """WebSocket limits."""
 
     replay: int = Field(10_000, ge=100, le=1_000_000, description="messages kept for replay")
@@ -213,7 +196,7 @@ class WsSettings(_Strict):
     ping_interval: float = Field(20.0, gt=0, le=600)
 
 
-class ConnectionSettings(_Strict):
+class ConnectionSettings(Strict):
     """Limits on the API's HTTP connections (gateway/cli/connection_guard.py): a client
     that sends too much, too slowly or nothing at all is closed before the app sees it."""
 
@@ -229,47 +212,7 @@ class ConnectionSettings(_Strict):
     max_per_client: int = Field(64, ge=1, le=100_000)
 
 
-class MqttSettings(_Strict):
-    """The Sparkplug B edge node (gateway/mqtt): off unless the section is present.
-
-    ``group`` and ``edge_node`` are Sparkplug ids: no ``+``, ``/`` or ``#`` (MQTT wildcards
-    and the topic separator). ``password`` is a secret: never logged, never shown.
-    """
-
-    host: str = Field(min_length=1)
-    port: int = Field(1883, ge=1, le=65535)
-    group: str = Field(pattern=r"^[^+/#\s]{1,64}$")
-    edge_node: str = Field(pattern=r"^[^+/#\s]{1,64}$")
-    #: the MQTT client id; default ``rc233-<group>-<edge_node>``
-    client_id: str | None = Field(None, min_length=1, max_length=64)
-    username: str | None = None
-    password: SecretStr | None = None
-    #: TLS to the broker: the CA bundle that signs its certificate (system CAs when omitted)
-    tls: bool = False
-    ca_file: Path | None = None
-    cert_file: Path | None = None
-    key_file: Path | None = None
-    keepalive: int = Field(30, ge=5, le=3600, description="seconds")
-    #: DCMD stop and acknowledge; off by default (commands then only over the REST API)
-    commands: bool = False
-    #: reconnect back-off: first and longest wait in seconds
-    reconnect_min: float = Field(0.5, gt=0, le=60)
-    reconnect_max: float = Field(30.0, gt=0, le=600)
-    #: bytes; a received payload over this is dropped before it is decoded (counted, logged)
-    max_payload: int = Field(65_536, ge=1_024, le=16_777_216)
-    #: the Sparkplug 3.0 Primary Host Application's id: births wait for its STATE online
-    primary_host: str | None = Field(None, pattern=r"^[^+/#\s]{1,64}$")
-
-    @model_validator(mode="after")
-    def _tls_files(self) -> Self:
-        if not self.tls and (self.ca_file or self.cert_file or self.key_file):
-            raise ValueError("ca_file, cert_file and key_file need tls = true")
-        if (self.cert_file is None) != (self.key_file is None):
-            raise ValueError("cert_file and key_file go together (client certificate)")
-        return self
-
-
-class AuditSettings(_Strict):
+class AuditSettings(Strict):
     """The audit file (``audit_log``): forcing entries to the disk, rotation, retries."""
 
     #: entries ``fsync``-ed before their request acts: ``motion`` (the default), ``acting``
@@ -282,57 +225,6 @@ class AuditSettings(_Strict):
     retry_seconds: float = Field(
         1.0, ge=0.05, le=60, description="while the file fails: seconds between tries"
     )
-
-
-#: The security policies the OPC UA face offers: a policy and its message security mode.
-OpcUaPolicy = Literal[
-    "None",
-    "Basic256Sha256_Sign",
-    "Basic256Sha256_SignAndEncrypt",
-    "Aes256Sha256RsaPss_Sign",
-    "Aes256Sha256RsaPss_SignAndEncrypt",
-]
-
-
-class OpcUaSettings(_Strict):
-    """The OPC UA server face (gateway/opcua): off unless the section is present.
-
-    Users log in with a token name as user name and the token itself as password (the
-    ``security.tokens`` book and its roles). ``certificate`` and ``private_key`` default to
-    files in the state directory, made at the first start (``rc233-gateway opcua-cert``).
-    """
-
-    endpoint: str = Field(
-        "opc.tcp://0.0.0.0:4840", pattern=r"^opc\.tcp://[^/:\s]+:\d{1,5}(/\S*)?$"
-    )
-    security_policies: list[OpcUaPolicy] = Field(
-        default_factory=lambda: [  # type: ignore[arg-type]
-            "Basic256Sha256_SignAndEncrypt",
-            "Basic256Sha256_Sign",
-            "Aes256Sha256RsaPss_SignAndEncrypt",
-            "Aes256Sha256RsaPss_Sign",
-        ],
-        min_length=1,
-    )
-    #: sessions without a user; they are viewers (browse, read, subscribe, no method)
-    anonymous: bool = False
-    #: the application URI, also in the server certificate
-    application_uri: str = Field("urn:rc233-gateway", min_length=1, max_length=256)
-    certificate: Path | None = None
-    private_key: Path | None = None
-    #: a folder of trusted client certificates (DER or PEM); None: any client certificate
-    trusted_clients: Path | None = None
-
-    @model_validator(mode="after")
-    def _checks(self) -> Self:
-        port = int(self.endpoint.rsplit(":", 1)[1].split("/")[0])
-        if not 1 <= port <= 65535:
-            raise ValueError(f"endpoint {self.endpoint}: port {port} is not 1-65535")
-        if len(set(self.security_policies)) != len(self.security_policies):
-            raise ValueError("security_policies: each policy once")
-        if (self.certificate is None) != (self.private_key is None):
-            raise ValueError("certificate and private_key go together")
-        return self
 
 
 class GatewayConfig(BaseSettings):
