@@ -105,6 +105,14 @@ def _stored(status: int, headers: list[tuple[bytes, bytes]]) -> bool:
     return any(name.lower() == b"location" for name, _ in headers)
 
 
+def _reused(key: str) -> Problem:
+    """A key sent again with another query or body: it names one request only."""
+    return _invalid(
+        f"{HEADER} {key!r} was used for a different request to this path",
+        f"one {HEADER} per request: a retry repeats the query and body exactly",
+    )
+
+
 class IdempotencyStore:
     """Bounded, expiring store of the first responses (``clock``: seconds, injectable)."""
 
@@ -212,11 +220,7 @@ class IdempotencyMiddleware:
             entry = self.store.get(ident)  # a request with the key may have begun meanwhile
             if entry is None and stored is not None:
                 if stored.fingerprint != digest:
-                    problem = _invalid(
-                        f"{HEADER} {key!r} was used for a different request to this path",
-                        f"one {HEADER} per request: a retry repeats the query and body exactly",
-                    )
-                    await problem_response(problem)(scope, receive, send)
+                    await problem_response(_reused(key))(scope, receive, send)
                     return
                 if stored.status is not None:
                     await _send(send, stored.status, stored.headers, stored.body)
@@ -228,11 +232,7 @@ class IdempotencyMiddleware:
                 return
         while entry is not None:
             if entry.fingerprint != digest:
-                problem = _invalid(
-                    f"{HEADER} {key!r} was used for a different request to this path",
-                    f"one {HEADER} per request: a retry repeats the query and body exactly",
-                )
-                await problem_response(problem)(scope, receive, send)
+                await problem_response(_reused(key))(scope, receive, send)
                 return
             await entry.done.wait()
             if entry.status is not None:
