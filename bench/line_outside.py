@@ -85,7 +85,9 @@ class Bench:
     def __init__(self, src: Path | None, python: str, tmp: Path) -> None:
         self.tmp = tmp
         self.python = python  # of the gateway, the simulator and the bare app
-        self.env = {**os.environ, "XDG_DATA_HOME": str(tmp)}
+        # Its own data and state directories: a gateway running beside the benchmark holds
+        # the user's state directory (one gateway per state directory).
+        self.env = {**os.environ, "XDG_DATA_HOME": str(tmp), "XDG_STATE_HOME": str(tmp)}
         if src is not None:
             self.env["PYTHONPATH"] = str(src)
         self.procs: list[subprocess.Popen[bytes]] = []

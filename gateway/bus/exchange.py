@@ -128,7 +128,7 @@ class LoopCore:
     def selected(self, body: str) -> int | None:
         """The motor selected on ``body`` as far as the scheduler can trust it: the state
         cache's, once confirmed (read back, or ER1's word); None when not known."""
-        ctl = self.state.controller(self.name, body)
+        ctl = self.state.flags(self.name, body)  # no copy of the record for its reply time
         return ctl.selected_motor if ctl.selection_confirmed else None
 
     def set_selection(self, body: str, motor: int | None) -> None:

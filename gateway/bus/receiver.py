@@ -225,6 +225,14 @@ class Receiver:
         events = self.parser.feed(data)
         for event in events:
             self._route(event)
+        if self.parser.at_rest:
+            # Every message ended (the usual reply in one chunk): the end of the line's quiet
+            # would find nothing to end, so no timer is armed for it (one less a reply).
+            if self._quiet_handle is not None:
+                self._quiet_handle.cancel()
+                self._quiet_handle = None
+            self._idle.set()
+            return
         # A chunk that did not end with a complete message leaves one half-received.
         if events and data.endswith(events[-1].raw):
             self._idle.set()
