@@ -13,6 +13,7 @@ gateway's CPU again. It prints one JSON object (with the load average) and, with
     .venv/bin/python bench/line_scale.py                        # 1,2,4,6,8 loops, 10 s a phase
     .venv/bin/python bench/line_scale.py --loops 1,2 --seconds 2   # what make bench runs
     .venv/bin/python bench/line_scale.py --plot docs/images/line_scale.png
+    .venv/bin/python bench/line_scale.py --src /tmp/before   # another tree (git archive)
 """
 
 from __future__ import annotations
@@ -205,7 +206,7 @@ async def run(args: argparse.Namespace) -> list[dict[str, Any]]:
     results = []
     for count in [int(n) for n in args.loops.split(",")]:
         with tempfile.TemporaryDirectory(prefix="line-scale-") as tmp:
-            bench = Bench(None, args.python, Path(tmp))
+            bench = Bench(args.src, args.python, Path(tmp))
             try:
                 results.append(await one_count(bench, count, args.seconds, args.callers))
             finally:
@@ -221,6 +222,7 @@ def main() -> None:
     parser.add_argument("--callers", type=int, default=4, help="HTTP clients a loop")
     parser.add_argument("--plot", type=Path, help="draw the figures (PNG; needs matplotlib)")
     parser.add_argument("--python", default=sys.executable, help="the gateway's Python")
+    parser.add_argument("--src", type=Path, help="run the gateway from this source tree")
     args = parser.parse_args()
     signal.signal(signal.SIGTERM, signal.default_int_handler)  # the processes are closed
     results = asyncio.run(run(args))
