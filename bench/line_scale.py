@@ -14,6 +14,7 @@ gateway's CPU again. It prints one JSON object (with the load average) and, with
     .venv/bin/python bench/line_scale.py --loops 1,2 --seconds 2   # what make bench runs
     .venv/bin/python bench/line_scale.py --plot docs/images/line_scale.png
     .venv/bin/python bench/line_scale.py --src /tmp/before   # another tree (git archive)
+    .venv/bin/python bench/line_scale.py --from-json after.json --before before.json --plot x.png
 """
 
 from __future__ import annotations
@@ -172,7 +173,7 @@ async def one_count(bench: Bench, count: int, seconds: float, callers: int) -> d
     }
 
 
-def plot(results: list[dict[str, Any]], out: Path) -> None:
+def plot(results: list[dict[str, Any]], out: Path, before: list[dict[str, Any]] | None) -> None:
     import matplotlib  # noqa: PLC0415 - bench-only and optional
 
     matplotlib.use("Agg")
@@ -185,16 +186,26 @@ def plot(results: list[dict[str, Any]], out: Path) -> None:
         eff.scatter([r["loops"]] * len(values), values, color="tab:blue", s=12)
     eff.plot(counts, [r["worst_loop_efficiency"] for r in results], color="tab:blue",
              label="worst loop")  # fmt: skip
+    if before:
+        eff.plot([r["loops"] for r in before], [r["worst_loop_efficiency"] for r in before],
+                 color="grey", linestyle=":", marker="x", label="worst loop, before")  # fmt: skip
     eff.axhline(0.95, color="tab:red", linestyle="--", label="target 0.95")
     eff.set(xlabel="loops of 15 controllers", ylabel="line efficiency", ylim=(0.5, 1.0),
             title="each loop's queue kept full over HTTP")  # fmt: skip
     eff.legend()
     cpu.plot(counts, [r["full_cpu_percent"] for r in results], marker="o", label="queues full")
     cpu.plot(counts, [r["idle_cpu_percent"] for r in results], marker="o", label="idle")
+    if before:
+        cpu.plot([r["loops"] for r in before], [r["full_cpu_percent"] for r in before],
+                 color="grey", linestyle=":", marker="x", label="queues full, before")  # fmt: skip
+        cpu.plot([r["loops"] for r in before], [r["idle_cpu_percent"] for r in before],
+                 color="grey", linestyle="--", marker="x", label="idle, before")  # fmt: skip
     cpu.plot(counts, counts, color="tab:red", linestyle="--", label="target idle: 1 % a loop")
     cpu.set(xlabel="loops of 15 controllers", ylabel="% of a core, all gateway processes",
             title="gateway CPU")  # fmt: skip
-    cpu.legend()
+    cpu.legend(fontsize=8)
+    for axes in (eff, cpu):
+        axes.set_xticks(counts)
     loads = ", ".join(str(r["load_average"]) for r in results)
     fig.suptitle(f"one gateway, 9600 bps loops at real time (load average {loads})", fontsize=9)
     fig.tight_layout()
@@ -223,13 +234,21 @@ def main() -> None:
     parser.add_argument("--plot", type=Path, help="draw the figures (PNG; needs matplotlib)")
     parser.add_argument("--python", default=sys.executable, help="the gateway's Python")
     parser.add_argument("--src", type=Path, help="run the gateway from this source tree")
+    parser.add_argument("--before", type=Path, help="an earlier run's JSON, drawn beside")
+    parser.add_argument("--from-json", type=Path, help="draw this run's JSON, run nothing")
     args = parser.parse_args()
     signal.signal(signal.SIGTERM, signal.default_int_handler)  # the processes are closed
+    before = json.loads(args.before.read_text())["runs"] if args.before else None
+    if args.from_json is not None:  # draw an earlier run again
+        results = json.loads(args.from_json.read_text())["runs"]
+        if args.plot is not None:
+            plot(results, args.plot, before)
+        return
     results = asyncio.run(run(args))
     print(json.dumps({"runs": results, "targets": {
         "worst_loop_efficiency": ">= 0.95", "idle_cpu_percent_a_loop": "<= 1.0"}}, indent=2))  # fmt: skip
     if args.plot is not None:
-        plot(results, args.plot)
+        plot(results, args.plot, before)
 
 
 if __name__ == "__main__":
