@@ -33,7 +33,8 @@ from line_outside import _exchange as http_exchange
 
 #: Stages, first match wins: (name, fragments of a module path or function name).
 STAGES: list[tuple[str, tuple[str, ...]]] = [
-    ("encode", ("protocol/framing.py", "protocol/models.py", "protocol/commands.py", "bus/timing.py")),
+    ("encode", ("protocol/framing.py", "protocol/models.py", "protocol/commands.py",
+                "bus/timing.py")),
     ("write", ("transport/", "selector_events.py:write", "link.py:_write")),
     ("read/parse", ("bus/receiver.py", "protocol/reply_parser.py", "protocol/command_replies.py",
                     "protocol/replies.py", "protocol/reply_values.py", "protocol/reply_decode")),
@@ -133,7 +134,9 @@ async def one_run(
     await wait_ready(http_port, "/api/v1/axes/x")
     await asyncio.sleep(2.0)
     done = asyncio.Event()
-    load = asyncio.create_task(keep_full(http_port, callers, bodies, done)) if mode == "full" else None
+    load = None
+    if mode == "full":
+        load = asyncio.create_task(keep_full(http_port, callers, bodies, done))
     await asyncio.sleep(0.5)
     proc.send_signal(signal.SIGUSR1)
     start = (time.monotonic(), cpu_seconds(proc.pid), os.getloadavg()[0])
@@ -174,9 +177,12 @@ async def run(args: argparse.Namespace) -> list[dict[str, Any]]:
     modes = ["idle", "full"] if args.mode == "both" else [args.mode]
     for mode in modes:
         with tempfile.TemporaryDirectory(prefix="exchange-profile-") as tmp:
-            bench = Bench(None, args.python, Path(tmp))
+            bench = Bench(args.src, args.python, Path(tmp))
             try:
-                results.append(await one_run(bench, mode, args.seconds, args.callers, args.top, args.keep))
+                figures = await one_run(
+                    bench, mode, args.seconds, args.callers, args.top, args.keep
+                )
+                results.append(figures)
             finally:
                 bench.close()
     return results
@@ -188,6 +194,7 @@ def main() -> None:
     parser.add_argument("--mode", choices=["idle", "full", "both"], default="both")
     parser.add_argument("--callers", type=int, default=12)
     parser.add_argument("--top", type=int, default=0, help="also the N hottest functions")
+    parser.add_argument("--src", type=Path, help="run the gateway from this source tree")
     parser.add_argument("--keep", type=Path, help="copy the profiles (pstats) to this directory")
     parser.add_argument("--python", default=sys.executable, help="the gateway's Python")
     args = parser.parse_args()

@@ -45,10 +45,10 @@ async def test_an_idle_status_poll_copies_no_state_record(
 
 async def test_a_whole_reply_leaves_no_quiet_timer_armed(make_bus: MakeBus) -> None:
     bus = await make_bus("1")
-    link = bus.scheduler._link  # noqa: SLF001 - the timer is what this test is about
+    link = bus.scheduler._link  # the timer is what this test is about
     for _ in range(3):
         await bus.scheduler.submit("1", parse(""))
-        assert link._quiet_handle is None  # noqa: SLF001
+        assert link._quiet_handle is None
 
 
 STREAMS = [
