@@ -31,44 +31,12 @@ import time
 from pathlib import Path
 from typing import Any
 
-from line_outside import CLI, PARTS, Bench, cpu_seconds, free_port, wait_ready
+from line_outside import CLI, PARTS, Bench, free_port, tree_cpu, wait_ready
 from line_outside import _exchange as http_exchange
 from outside_record import exchanges
 
 BODIES = "0123456789ABCDE"
 READS = ("OH", "OL", "CL", "2D", "OX")
-
-
-def descendants(pid: int) -> list[int]:
-    """``pid`` and every process below it (``/proc``'s parent links)."""
-    children: dict[int, list[int]] = {}
-    for entry in Path("/proc").iterdir():
-        if not entry.name.isdigit():
-            continue
-        try:
-            ppid = int((entry / "stat").read_text().rsplit(")", 1)[1].split()[1])
-        except (OSError, IndexError, ValueError):
-            continue  # gone meanwhile
-        children.setdefault(ppid, []).append(int(entry.name))
-    found, todo = [], [pid]
-    while todo:
-        current = todo.pop()
-        found.append(current)
-        todo += children.get(current, [])
-    return found
-
-
-def tree_cpu(pid: int) -> tuple[float, int]:
-    """CPU seconds of ``pid`` and its descendants, and how many processes that is. A child
-    that ended meanwhile is not counted: read it over windows where none ends."""
-    total, count = 0.0, 0
-    for each in descendants(pid):
-        try:
-            total += cpu_seconds(each)
-            count += 1
-        except OSError:
-            pass
-    return total, count
 
 
 def config(loops: list[tuple[str, int]]) -> str:
