@@ -84,8 +84,11 @@ contract: $(STAMP)
 
 # The benchmarks print figures; here at scaled time (by hand: real time, see bench/README.md).
 bench: $(STAMP) system-tools
+	$(BIN)/python -m pip install --quiet -e '.[test,bench]'
 	$(BIN)/python bench/line_efficiency.py --time-scale 10 --seconds 3
 	$(BIN)/python bench/line_outside.py --seconds 2
+	$(BIN)/python bench/line_scale.py --loops 1,2 --seconds 2 --plot $(VENV)/line_scale.png
+	$(BIN)/python bench/exchange_profile.py --mode idle --seconds 2
 	$(BIN)/python bench/api.py --quick
 	$(BIN)/python bench/dashboard.py --seconds 3
 

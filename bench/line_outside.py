@@ -85,7 +85,9 @@ class Bench:
     def __init__(self, src: Path | None, python: str, tmp: Path) -> None:
         self.tmp = tmp
         self.python = python  # of the gateway, the simulator and the bare app
-        self.env = {**os.environ, "XDG_DATA_HOME": str(tmp)}
+        # Its own data and state directories: a gateway running beside the benchmark holds
+        # the user's state directory (one gateway per state directory).
+        self.env = {**os.environ, "XDG_DATA_HOME": str(tmp), "XDG_STATE_HOME": str(tmp)}
         if src is not None:
             self.env["PYTHONPATH"] = str(src)
         self.procs: list[subprocess.Popen[bytes]] = []
@@ -140,6 +142,38 @@ class Bench:
 def cpu_seconds(pid: int) -> float:
     fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
     return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def descendants(pid: int) -> list[int]:
+    """``pid`` and every process below it (``/proc``'s parent links)."""
+    children: dict[int, list[int]] = {}
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            ppid = int((entry / "stat").read_text().rsplit(")", 1)[1].split()[1])
+        except (OSError, IndexError, ValueError):
+            continue  # gone meanwhile
+        children.setdefault(ppid, []).append(int(entry.name))
+    found, todo = [], [pid]
+    while todo:
+        current = todo.pop()
+        found.append(current)
+        todo += children.get(current, [])
+    return found
+
+
+def tree_cpu(pid: int) -> tuple[float, int]:
+    """CPU seconds of ``pid`` and its descendants, and how many processes that is. A child
+    that ended meanwhile is not counted: read it over windows where none ends."""
+    total, count = 0.0, 0
+    for each in descendants(pid):
+        try:
+            total += cpu_seconds(each)
+            count += 1
+        except OSError:
+            pass
+    return total, count
 
 
 async def http(port: int, method: str, path: str, body: Any = None) -> tuple[int, bytes]:
@@ -355,9 +389,10 @@ async def run(args: argparse.Namespace, bench: Bench) -> dict[str, Any]:
     pid15 = bench.gateway("gateway15", ports["p15"], bodies15, ports["h15"])
     await wait_ready(ports["h15"], "/api/v1/axes/x")
     await asyncio.sleep(2.0)
-    idle = (time.monotonic(), cpu_seconds(pid15))
+    # Every process of the gateway (line workers are children of serve).
+    idle = (time.monotonic(), tree_cpu(pid15)[0])
     await asyncio.sleep(args.seconds)
-    idle_end = (time.monotonic(), cpu_seconds(pid15))
+    idle_end = (time.monotonic(), tree_cpu(pid15)[0])
     cli = parse_start(bench)
     bench.stop(proxy)
     rows = [json.loads(line) for line in record.read_text().splitlines()]
@@ -384,7 +419,7 @@ async def run(args: argparse.Namespace, bench: Bench) -> dict[str, Any]:
             "naive_on_the_wire_per_s": naive_frames["position_reads_per_s"],
             "naive_axis_moved": naive["moved"],
             "ratio": round(position_rate / naive["per_second"], 3),
-            "target": ">= 0.95 with status >= 5/s",
+            "target": ">= 0.92 with status >= 5/s",
         },
         "cached_get": {
             "axes": axes,
@@ -396,7 +431,7 @@ async def run(args: argparse.Namespace, bench: Bench) -> dict[str, Any]:
             "cpu_percent": round(idle_cpu / idle_seconds * 100, 2),
             "exchanges_per_s": round(len(idle_frames) / idle_seconds, 1),
             "cpu_ms_per_exchange": round(idle_cpu / max(1, len(idle_frames)) * 1000, 3),
-            "target": "<= 1.5 %",
+            "target": "<= 1.0 %, <= 0.2 ms an exchange, all the gateway's processes",
         },
         "cli_parse_seconds": {"median_of_3": round(cli, 3), "target": "<= 0.5"},
         "fan_out": "bench/api.py",

@@ -133,7 +133,7 @@ def analyse_line(
         "stop_over_in_flight_ms_p99": _ms(percentile(excess, 0.99)),
         "stops_sent_in_a_gap": in_gap,
         "stops_behind_another_exchange": behind,
-        "stop_target": "<= in-flight remainder + 3 ms, never behind another exchange",
+        "stop_target": "p99 <= 15 ms (in flight + 3 ms), never behind another exchange",
     }
     if stops_queued is not None:
         figures |= {

@@ -161,6 +161,11 @@ class EventBus(Generic[EventT]):
         self._callbacks: list[Callable[[EventT], None]] = []
         #: events waiting for the non-urgent subscribers (None: deliver at once)
         self._held: list[EventT] | None = None
+        #: the subscribers as of the last (un)subscription: a delivery walks this and a
+        #: callback that (un)subscribes meanwhile changes the next delivery, not this one;
+        #: kept rather than copied at every event (several an exchange)
+        self._urgent_now: tuple[Callable[[EventT], None], ...] = ()
+        self._callbacks_now: tuple[Callable[[EventT], None], ...] = ()
 
     def subscribe(
         self, callback: Callable[[EventT], None], *, first: bool = False, urgent: bool = False
@@ -177,12 +182,18 @@ class EventBus(Generic[EventT]):
             group.insert(0, callback)
         else:
             group.append(callback)
+        self._changed()
 
         def unsubscribe() -> None:
             if callback in group:
                 group.remove(callback)
+                self._changed()
 
         return unsubscribe
+
+    def _changed(self) -> None:
+        self._urgent_now = tuple(self._urgent)
+        self._callbacks_now = tuple(self._callbacks)
 
     def defer(self) -> None:
         """Until the calling task yields, deliver to urgent subscribers only (see the class)."""
@@ -198,21 +209,19 @@ class EventBus(Generic[EventT]):
 
     def publish(self, event: EventT) -> None:
         """Deliver ``event`` to every subscriber now (the urgent ones only, while deferred)."""
-        for callback in self._urgent:
-            self._call(callback, event)
+        for callback in self._urgent_now:
+            try:
+                callback(event)
+            except Exception:  # one bad subscriber must not stop the loop
+                log.exception("event subscriber %r failed on %r", callback, event)
         if self._held is not None:
             self._held.append(event)
         else:
             self._deliver(event)
 
     def _deliver(self, event: EventT) -> None:
-        callbacks = self._callbacks
-        for callback in list(callbacks):
-            self._call(callback, event)
-
-    @staticmethod
-    def _call(callback: Callable[[EventT], None], event: EventT) -> None:
-        try:
-            callback(event)
-        except Exception:  # one bad subscriber must not stop the loop
-            log.exception("event subscriber %r failed on %r", callback, event)
+        for callback in self._callbacks_now:
+            try:
+                callback(event)
+            except Exception:  # one bad subscriber must not stop the loop
+                log.exception("event subscriber %r failed on %r", callback, event)

@@ -31,7 +31,7 @@ from gateway.bus.timing import Timing, reply_chars
 from gateway.errors import ReplyFormatError
 from gateway.protocol import commands as cmd
 from gateway.protocol.command_replies import decode_for
-from gateway.protocol.framing import Framing, encode_command, framing_switch
+from gateway.protocol.framing import Framing, Series, encode_command, framing_switch
 from gateway.protocol.models import Command
 from gateway.protocol.replies import (
     ReplyValue,
@@ -54,6 +54,8 @@ _PROBE = confirm_command()
 
 #: Kinds after which nobody knows what the controller did or how it is set up.
 DOUBT = frozenset({ReplyKind.TIMEOUT, ReplyKind.GARBLED, ReplyKind.CHECKSUM})
+#: Frames kept encoded (``LoopCore._send``): the polls of a loop, with room for callers' reads.
+_FRAMES_KEPT = 512
 #: Replies every subscriber hears at once (``EventBus.defer`` is for the others).
 _AT_ONCE = frozenset({Effect.MOTION, Effect.STOP})
 
@@ -114,6 +116,8 @@ class LoopCore:
         #: controllers that timed out in silence since the last byte heard: when it covers
         #: every answering controller, the line is gone, not one controller (``_check_health``)
         self.silent: set[str] = set()
+        #: frames encoded before, by body, text, series and framing (a pure function of them)
+        self._frames: dict[tuple[str, str, Series, Framing], bytes] = {}
 
     # ------------------------------------------------------------------ bookkeeping
 
@@ -128,7 +132,7 @@ class LoopCore:
     def selected(self, body: str) -> int | None:
         """The motor selected on ``body`` as far as the scheduler can trust it: the state
         cache's, once confirmed (read back, or ER1's word); None when not known."""
-        ctl = self.state.controller(self.name, body)
+        ctl = self.state.flags(self.name, body)  # no copy of the record for its reply time
         return ctl.selected_motor if ctl.selection_confirmed else None
 
     def set_selection(self, body: str, motor: int | None) -> None:
@@ -233,7 +237,13 @@ class LoopCore:
         text = command.wire()
         switch = framing_switch(framing, text) if command.form.switches_framing else None
         reply_framing = switch.reply if switch is not None else framing
-        frame = encode_command(body, text, series=series, framing=framing)
+        key = (body, text, series, framing)
+        frame = self._frames.get(key)
+        if frame is None:  # the poller asks the same few frames again and again
+            frame = encode_command(body, text, series=series, framing=framing)
+            if len(self._frames) >= _FRAMES_KEPT:
+                self._frames.clear()
+            self._frames[key] = frame
         ran = self.link.programs.may_run(body)  # before this frame and its reply
         self.link.programs.sending(body, command)  # a program may print before G's '>' ends
         exchange = await self.link.exchange(

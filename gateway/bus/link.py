@@ -221,7 +221,8 @@ class Link(Receiver):
         self._last_frame = data
         self._counters.bytes_out += len(data)
         self._counters.busy_time += self.timing.wire(len(data))
-        self._trace.add(now, FrameDirection.TX, body, data)
+        if self._trace.on:
+            self._trace.add(now, FrameDirection.TX, body, data)
 
     async def probe(
         self, body: str, frame: bytes, *, reply_len: int, complete: Callable[[bytes], bool]

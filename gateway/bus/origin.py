@@ -61,6 +61,10 @@ class OriginWriter(Protocol):
         """One axis."""
         ...
 
+    def axis_flags(self, loop: str, body: str, motor: int) -> AxisState:
+        """One axis as last changed (its ``updated`` may lag behind: no copy)."""
+        ...
+
     def write_axis(self, now: float, loop: str, body: str, motor: int, **values: Any) -> None:
         """Set fields of one axis."""
         ...
@@ -148,7 +152,7 @@ def origin_status(
     a limit or emergency error has found the origin."""
     ctl = cache.flags(loop, body)
     for m in MOTORS:
-        axis = cache.axis(loop, body, m)
+        axis = cache.axis_flags(loop, body, m)
         if flags.moving:
             if axis_moving(ctl, m) is not False and not axis.counting:
                 cache.write_axis(now, loop, body, m, counting=True)

@@ -128,7 +128,8 @@ class PollPlan:
                 if due <= now and (best is None or (rank, due, plan.body) < best):
                     best = (rank, due, plan.body)
                     picked = job
-                earliest = min(earliest, due)
+                if due < earliest:  # not min(): this runs for every job of every poll
+                    earliest = due
         if best is None:
             return earliest
         return self.bodies[best[2]], picked

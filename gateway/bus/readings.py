@@ -53,6 +53,10 @@ class StateWriter(Protocol):
         """One axis."""
         ...
 
+    def axis_flags(self, loop: str, body: str, motor: int) -> AxisState:
+        """One axis as last changed (its ``updated`` may lag)."""
+        ...
+
     def write_controller(self, now: float, loop: str, body: str, **values: Any) -> None:
         """Set fields of one controller."""
         ...
@@ -193,7 +197,7 @@ class _Reading:
             seen[self.loop, self.body] = seen.get((self.loop, self.body), frozenset()) | kinds
         for m in MOTORS:
             # An axis whose position was never read stays stale: nothing is claimed unread.
-            unread = self.cache.axis(self.loop, self.body, m).position is None
+            unread = self.cache.axis_flags(self.loop, self.body, m).position is None
             self.axis(m, updated=self.now, stale=unread)
         origin_status(self.cache, self.loop, self.body, flags, self.now)
 

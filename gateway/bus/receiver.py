@@ -206,7 +206,6 @@ class Receiver:
             self.lose(f"read failed: {exc!r}")
 
     def _received(self, data: bytes) -> None:
-        now = self._clock()
         self._rx_chunks += 1
         counters = self._counters
         counters.bytes_in += len(data)
@@ -217,7 +216,8 @@ class Receiver:
         if pending is not None:
             pending.heard = True
         body = pending.body if pending is not None else None
-        self._trace.add(now, FrameDirection.RX, body, data)
+        if self._trace.on:
+            self._trace.add(self._clock(), FrameDirection.RX, body, data)
         if self._probe is not None:
             self._probe += data  # the framing is in doubt: read raw, not with the parser
             self._probe_changed.set()
@@ -225,6 +225,14 @@ class Receiver:
         events = self.parser.feed(data)
         for event in events:
             self._route(event)
+        if self.parser.at_rest:
+            # Every message ended (the usual reply in one chunk): the end of the line's quiet
+            # would find nothing to end, so no timer is armed for it (one less a reply).
+            if self._quiet_handle is not None:
+                self._quiet_handle.cancel()
+                self._quiet_handle = None
+            self._idle.set()
+            return
         # A chunk that did not end with a complete message leaves one half-received.
         if events and data.endswith(events[-1].raw):
             self._idle.set()

@@ -121,6 +121,11 @@ class StateCache:
         """One axis (a blank one if nothing was heard of it)."""
         return self._fold(self._axes, (loop, body, motor)) or AxisState(motor)
 
+    def axis_flags(self, loop: str, body: str, motor: int) -> AxisState:
+        """One axis as last changed, without the time of its latest reply (``flags``'s
+        counterpart: for the rules a status poll runs on every axis, which copy no record)."""
+        return self._axes.get((loop, body, motor)) or AxisState(motor)
+
     def bodies(self, loop: str) -> list[str]:
         """The controllers of ``loop`` the cache knows, in body order."""
         return sorted(b for (name, b) in self._ctls if name == loop)

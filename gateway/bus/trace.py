@@ -61,10 +61,14 @@ class LineTrace:
         self.all = False
         self.bodies: set[str] = set()
         self.hex_mode = False
+        #: anything traced at all: the exchange path asks this before it builds a record
+        #: (tracing is off on a running site, and a reply costs no call then)
+        self.on = False
 
     def enable(self, on: bool = True, *, hex_mode: bool | None = None) -> None:
         """Trace every controller of the loop (or stop doing so)."""
         self.all = on
+        self.on = self.all or bool(self.bodies)
         if hex_mode is not None:
             self.hex_mode = hex_mode
 
@@ -74,6 +78,7 @@ class LineTrace:
             self.bodies.add(body)
         else:
             self.bodies.discard(body)
+        self.on = self.all or bool(self.bodies)
 
     def wants(self, body: str | None) -> bool:
         """Whether bytes of ``body`` are traced now."""

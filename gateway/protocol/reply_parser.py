@@ -44,6 +44,7 @@ Ambiguous in the manual, decided in ``docs/manual-notes.md`` ("Framing and the r
 
 from __future__ import annotations
 
+import re
 from enum import Enum, auto
 
 from gateway.protocol.framing import BODY_NUMBERS, POWER_ON, Framing, Series, checksum, from_wire
@@ -83,6 +84,8 @@ MAX_LINE = 4608
 _CR, _GT, _QUESTION, _AT, _DOLLAR, _HASH = b"\r>?@$#"
 _MARKS = frozenset(b"$#")
 _STARTS = frozenset(b">?@$#")
+#: The bytes that end or restart a line (``_line``); any other is only kept.
+_LINE_STOP = re.compile(rb"[\r$#]")
 
 
 class _State(Enum):
@@ -162,12 +165,31 @@ class ReplyParser:
         self._exp = None
         self._echo = None
 
+    @property
+    def at_rest(self) -> bool:
+        """Between messages with nothing held: ``line_quiet`` would end nothing now."""
+        return self._state is _State.IDLE and self._echo is None
+
     def feed(self, data: bytes) -> list[ReplyEvent]:
         """Parse received bytes; returns the events they complete, in order."""
         out: list[ReplyEvent] = []
-        for byte in data:
+        i, end = 0, len(data)
+        while i < end:
+            if self._state is _State.LINE:
+                # The body of a line straight from the bytes: every byte up to the next one
+                # that can end or restart it (CR, '$', '#') is only kept (``_line``).
+                found = _LINE_STOP.search(data, i)
+                stop = end if found is None else found.start()
+                room = MAX_LINE - len(self._buf)
+                if stop > i and room > 0:
+                    take = min(stop - i, room)
+                    self._buf += data[i : i + take]
+                    i += take
+                    continue
+            byte = data[i]
             while not self._step(byte, out):
                 pass  # the byte ended the message before it; read it again from the new state
+            i += 1
         return out
 
     def line_quiet(self) -> list[ReplyEvent]:
