@@ -10,8 +10,8 @@ import pytest
 from fastapi import FastAPI, Response
 
 from gateway.api.idempotency import install_idempotency
-from gateway.api.security import AuthConfig, install_security
 from gateway.api.problems import install_problem_handlers
+from gateway.api.security import AuthConfig, install_security
 from gateway.service.store import StateStore
 from tests.api.sim_app import auth, json_of, running_app
 
