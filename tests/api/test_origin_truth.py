@@ -208,15 +208,3 @@ async def test_a_preset_from_outside_the_gateway_to_zero_loses_the_origin() -> N
         assert "reads 0 after 3000" in view["origin_cause"], view
         await home(api)
         assert json_of(await api.client.get("/axes/x"))["origin_cause"] is None
-
-
-async def test_the_control_surface_refuses_a_preset_while_the_motor_moves() -> None:
-    async with running_app(("1",)) as api:
-        r = await api.client.post("/axes/x/move", json={"position": 90_000, "unit": "pulse"})
-        assert r.status_code == 202, r.text
-        await api.until(
-            lambda: api.device("1").snapshot(api.sim.act(lambda now: now))["axes"]["1"]["moving"]
-        )
-        reply = Controls(api.sim).handle({"op": "preset", "body": "1", "motor": 1, "position": 5})
-        assert reply["ok"] is False and "refused while moving" in reply["error"], reply
-        await api.client.post("/axes/x/stop", json={})

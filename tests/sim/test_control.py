@@ -90,6 +90,24 @@ async def test_slip_moves_the_mechanics_not_the_counter(make_wire: Callable[...,
     assert await cl_bits(wire) & ORG_BIT  # but the axis now stands at 200, on ORG
 
 
+async def test_preset_sets_the_counter_and_is_refused_while_the_motor_moves(
+    make_wire: Callable[..., Wire],
+) -> None:
+    """``preset``: an ``R`` the host did not send; ``R`` is refused while moving (§10 R)."""
+    wire = make_wire(scene=SCENE)
+    assert op(wire, op="preset", body="1", motor=1, position=1234) == {"ok": True}
+    assert await wire.exchange(b"$16\r") == b">$100001234\r"  # the counter, not the mechanics
+    assert await wire.exchange(b"$1OL50\r") == b">"
+    assert await wire.exchange(b"$1OH100\r") == b">"
+    assert await wire.exchange(b"$1290000\r") == b">"
+    # 88,766 pulses at 100 pps: about 9 real seconds at the wire's time scale, so the move is
+    # still on when the control surface is asked, however busy the machine
+    assert await wire.exchange(b"$13\r") == b">"
+    refused = op(wire, op="preset", body="1", motor=1, position=5)
+    assert refused["ok"] is False and "refused while moving" in refused["error"], refused
+    assert await wire.exchange(b"$1S\r") == b">"
+
+
 async def test_general_input(wire: Wire) -> None:
     assert op(wire, op="input", body="1", bit=0, on=True) == {"ok": True}
     assert await wire.exchange(b"$1C\r") == b">$101\r"  # §10 C: inputs 7-0
