@@ -72,10 +72,11 @@ layers: $(STAMP)
 	$(BIN)/lint-imports
 
 # The protocol layer is what everything stands on: it must stay >= 95 % covered.
-# Two pytest processes (-n 2), each test given to whichever is free (worksteal): on two cores
-# the suite takes about two thirds of the time of one process.
+# Two pytest processes (-n 2), each test module to one of them (loadscope: a module's fixtures
+# start once, and a test that reads what the tests before it in its module did finds it):
+# on two cores the suite takes about two thirds of the time of one process.
 unit: $(STAMP) $(NODE_STAMP) $(OPCUA_CLIENT_STAMP) system-tools
-	$(BIN)/pytest -m "not contract" -n 2 --dist worksteal --cov --cov-report=term --cov-fail-under=90
+	$(BIN)/pytest -m "not contract" -n 2 --dist loadscope --cov --cov-report=term --cov-fail-under=90
 	$(BIN)/coverage report --include='gateway/protocol/*' --fail-under=95 > /dev/null \
 		|| { echo "gateway/protocol/ line coverage is under 95 %"; exit 1; }
 
