@@ -16,6 +16,7 @@ from typing import Any
 from asyncua import Server, ua
 
 from gateway.opcua.address_space import Nodes, build
+from gateway.opcua.call_lanes import install_call_lanes, pending_calls
 from gateway.opcua.certificate import ensure_certificate, server_files
 from gateway.opcua.methods import Audit, Methods, StatusRefusal
 from gateway.opcua.users import TokenUsers, install_caller_context
@@ -34,6 +35,8 @@ log = logging.getLogger("gateway.opcua")
 
 #: Owners (axes, controllers, loops) written between two yields to the event loop.
 YIELD_EVERY = 16
+#: Seconds the face waits at its stop for method calls still running.
+CALLS_AT_STOP = 10.0
 
 S = ua.VariantType.String
 D = ua.VariantType.Double
@@ -160,6 +163,7 @@ class OpcUaFace:
     async def start(self) -> None:
         """Build the address space, load or make the certificate, listen."""
         install_caller_context()
+        install_call_lanes()
         # asyncua narrates every node it adds at INFO: thousands of lines for a cell
         logging.getLogger("asyncua").setLevel(logging.WARNING)
         settings = self.settings
@@ -217,6 +221,11 @@ class OpcUaFace:
             self._writer.cancel()
             await asyncio.gather(self._writer, return_exceptions=True)
         await self.server.stop()
+        calls = pending_calls()
+        if calls:  # a call that acts is let finish (its answer has nobody to go to)
+            _, late = await asyncio.wait(calls, timeout=CALLS_AT_STOP)
+            for task in late:
+                task.cancel()
 
     async def _add_methods(self, nodes: Nodes) -> None:
         idx, m = nodes.index, self.methods
