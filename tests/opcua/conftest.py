@@ -84,7 +84,8 @@ class Cell:
         """One request to the simulator's control surface."""
         reader, writer = await asyncio.wait_for(
             # a trace of the whole run is longer than a stream's default line limit
-            asyncio.open_connection("127.0.0.1", self.control_port, limit=2**24), WAIT
+            asyncio.open_connection("127.0.0.1", self.control_port, limit=2**24),
+            WAIT,
         )
         try:
             writer.write(json.dumps(request).encode() + b"\n")
