@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import asyncio
 import logging
+import time
 from typing import Any
 
 from asyncua import Server, ua
@@ -80,6 +81,8 @@ class OpcUaFace:
         self.targets: dict[str, int | None] = {}
         self._sent: dict[str, dict[str, Shown]] = {}
         self._dirty: set[str] = set()
+        #: per loop, the time of its record's latest change (its values' source time)
+        self._loop_changed: dict[str, float] = {}
         self._wake = asyncio.Event()
         self._writer: asyncio.Task[None] | None = None
         self._unlisten: list[Any] = []
@@ -90,6 +93,8 @@ class OpcUaFace:
         """Synchronous, no I/O: mark what moved and wake the writer."""
         loop = change.loop
         if change.body is None:
+            # (a mirrored loop record has no reading time: then when the face heard of it)
+            self._loop_changed[loop] = change.time or time.monotonic()
             self._dirty.add(f"loop:{loop}")
             if "up" in change.values:
                 for ctl in self.gateway.topology.controllers(loop):
@@ -118,7 +123,7 @@ class OpcUaFace:
     def _shown(self, owner: str) -> dict[str, Shown]:
         topology = self.gateway.topology
         if owner.startswith("loop:"):
-            return loop_values(self.gateway, owner[5:])
+            return loop_values(self.gateway, owner[5:], self._loop_changed.get(owner[5:]))
         if owner.count(".") == 2:
             return axis_values(self.gateway, topology.axis(owner), self.targets.get(owner))
         shown = controller_values(self.gateway, topology.controller(owner))
@@ -194,6 +199,8 @@ class OpcUaFace:
             self.gateway.state.changes.subscribe(self._on_change),
             self.gateway.events.subscribe(self._on_event),
         ]
+        # the loops' state as the face finds it: its source time is now (a change sets it)
+        self._loop_changed = {loop.name: time.monotonic() for loop in self.gateway.topology.loops()}
         self._dirty.update(
             self.nodes.variables.keys()
             - {k for k in self.nodes.variables if k.endswith("/Identification")}

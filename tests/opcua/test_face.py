@@ -45,7 +45,8 @@ async def test_browse_names_from_the_configuration_and_values_with_their_source_
     assert r[3]["names"] == ["z", "main.1.2"]  # an axis without a name: its id
     names = set(r[4]["names"])
     assert {"ActualPosition", "ActualPositionPulses", "TargetPosition", "Moving", "Stale",
-            "LimitError", "EmergencyError", "CommandError", "StepOutError"} <= names  # fmt: skip
+            "LimitError", "EmergencyError", "CommandError", "StepOutError",
+            "Homed"} <= names  # fmt: skip
     assert {"EngineeringUnits", "EURange"} <= set(r[5]["names"])
     position = r[6]
     assert position["status"] == "Good" and position["value"] == 0
@@ -53,6 +54,7 @@ async def test_browse_names_from_the_configuration_and_values_with_their_source_
     assert r[7]["status"] == "Good" and r[7]["value"].startswith("1.")
     assert r[8]["value"] == "RC-233"
     assert r[9] == {**r[9], "status": "Good", "value": True}
+    assert r[9]["sourceTimestamp"] is not None  # the line's state has a time too
     assert r[10]["value"] is True
 
 
