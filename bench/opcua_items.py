@@ -265,8 +265,9 @@ async def run(args: argparse.Namespace) -> dict[str, Any]:
         sim_pids = [p.pid for p in bench.procs]
         proxied, opc_port, http_port = free_port(), free_port(), free_port()
         record = tmp / "line.jsonl"
-        proxy = bench.start(PARTS, "proxy", "--out", str(record),
-                            "--pair", f"main:{proxied}:{sims[0]}", ready="ready", log="proxy")  # fmt: skip
+        pair = f"main:{proxied}:{sims[0]}"
+        proxy = bench.start(PARTS, "proxy", "--out", str(record), "--pair", pair,
+                            ready="ready", log="proxy")  # fmt: skip
         cell = tmp / "cell.toml"
         cell.write_text(config(args.loops, [proxied, *sims[1:]], opc_port, tmp / "state"))
         gateway = bench.start(*CLI, "serve", "--config", str(cell), "--no-auth",
