@@ -20,7 +20,8 @@ between the gateway and the first loop's simulator, the stamping proxy of
    at every poll. Windows of ``--seconds`` alternate: no OPC UA client, then ``--clients``
    sessions each subscribed to every axis value; the ratio with / without is of one run.
 
-Prints one JSON object with the load average before and after.
+Prints one JSON object with the load average before and after. ``--src DIR`` runs the
+gateway and the simulators from another source tree (``git archive main | tar -x -C DIR``).
 
     .venv/bin/python bench/opcua_items.py --loops 3
     .venv/bin/python bench/opcua_items.py --loops 3 --phase efficiency --rounds 3
@@ -140,11 +141,16 @@ async def items_phase(gateway: int, sims: list[int], port: int, axes: list[str],
         calls: list[float] = []
         for position in (target, 0):
             sent = time.monotonic()
-            await asyncio.gather(*(
-                client.get_node(f"ns=2;s={a}").call_method("2:MoveAbsolute",
-                    ua.Variant(float(position), ua.VariantType.Double), "pulse")
-                for a in moving
-            ))  # fmt: skip
+            try:
+                await asyncio.gather(*(
+                    client.get_node(f"ns=2;s={a}").call_method("2:MoveAbsolute",
+                        ua.Variant(float(position), ua.VariantType.Double), "pulse")
+                    for a in moving
+                ))  # fmt: skip
+            except ConnectionError as exc:  # the session lost: what the figures are then
+                return {"items": len(axes) * len(VALUES), "error": repr(exc),
+                        "after_s": round(time.monotonic() - began, 2),
+                        "subscription_lost": lags.lost}  # fmt: skip
             calls.append(time.monotonic() - sent)
             deadline = time.monotonic() + 120
             while time.monotonic() < deadline and any(
@@ -194,21 +200,25 @@ async def efficiency_phase(bench: Bench, proxy: Any, record: Path, gateway: int,
     done = asyncio.Event()
     callers = asyncio.create_task(_callers(http_port, done, args.callers))
     await asyncio.sleep(1.0)
-    windows: list[tuple[str, float, float, float]] = []
+    windows: list[tuple[str, float, float, float, float]] = []
     for _ in range(args.rounds):
         for mode in ("without", "with"):
             clients: list[Client] = []
+            seen: list[Lags] = []
             if mode == "with":
                 for _ in range(args.clients):
                     client = _client(port)
                     await client.connect()
-                    await _subscribe(client, axes, args.sampling, Lags())
+                    seen.append(Lags())
+                    await _subscribe(client, axes, args.sampling, seen[-1])
                     clients.append(client)
                 await asyncio.sleep(1.0)  # the first notifications of every item: settled
             start, cpu0 = time.monotonic(), cpu_seconds(gateway)
+            counted = sum(s.count for s in seen)
             await asyncio.sleep(args.seconds)
             end, cpu = time.monotonic(), cpu_seconds(gateway) - cpu0
-            windows.append((mode, start, end, cpu / (end - start)))
+            rate = (sum(s.count for s in seen) - counted) / (end - start)
+            windows.append((mode, start, end, cpu / (end - start), rate))
             for client in clients:
                 await client.disconnect()
     done.set()
@@ -218,14 +228,15 @@ async def efficiency_phase(bench: Bench, proxy: Any, record: Path, gateway: int,
     bench.stop(proxy)
     rows = [json.loads(line) for line in record.read_text().splitlines()]
     out: list[dict[str, Any]] = []
-    for mode, start, end, cpu in windows:
+    for mode, start, end, cpu, rate in windows:
         line = analyse_line(rows, "main", start, end, [])
         out.append({"opcua_clients": args.clients if mode == "with" else 0,
                     "line_efficiency": line["line_efficiency"],
                     "exchanges": line["exchanges"],
                     "gateway_gap_ms_p50": line["gateway_gap_ms_p50"],
                     "gateway_gap_ms_p99": line["gateway_gap_ms_p99"],
-                    "gateway_cpu_per_s": round(cpu, 3)})  # fmt: skip
+                    "gateway_cpu_per_s": round(cpu, 3),
+                    "notifications_per_s": round(rate, 1)})  # fmt: skip
     with_ = [w["line_efficiency"] for w in out if w["opcua_clients"]]
     without = [w["line_efficiency"] for w in out if not w["opcua_clients"]]
     return {
@@ -256,7 +267,7 @@ async def _wait_ready(http_port: int, loops: int) -> None:
 async def run(args: argparse.Namespace) -> dict[str, Any]:
     load = [round(x, 2) for x in os.getloadavg()]
     tmp = Path(tempfile.mkdtemp(prefix="rc233-bench-opcua-"))
-    bench = Bench(None, sys.executable, tmp)
+    bench = Bench(args.src, sys.executable, tmp)
     logging.getLogger("asyncua").setLevel(logging.ERROR)
     try:
         sims = [free_port() for _ in range(args.loops)]
@@ -300,6 +311,7 @@ def main() -> None:
     parser.add_argument("--rounds", type=int, default=2, help="pairs of efficiency windows")
     parser.add_argument("--clients", type=int, default=1, help="OPC UA sessions, efficiency")
     parser.add_argument("--callers", type=int, default=12, help="HTTP clients, efficiency")
+    parser.add_argument("--src", type=Path, help="run the gateway and simulators from this tree")
     args = parser.parse_args()
     print(json.dumps(asyncio.run(run(args))))
 
