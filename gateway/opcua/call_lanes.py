@@ -18,7 +18,9 @@ lets everything else (reads, browses, subscriptions, publishing) pass them.
 
 A connection may have at most ``MAX_PENDING`` calls waiting; beyond that its request loop
 waits for the oldest to end (the flood costs its sender, not the others). A call whose session
-has gone by the time its turn comes is refused as any request without a session is.
+was closed by the time its turn comes is refused as any request without a session is; one
+whose connection has closed is dropped without acting (nobody would see its answer), as
+asyncua dropped the requests still queued on a lost connection.
 """
 
 from __future__ import annotations
@@ -79,6 +81,11 @@ def install_call_lanes() -> None:
         async def run() -> None:
             if before is not None:
                 await asyncio.wait([before])  # its outcome is its own; only its end matters
+            if self._transport.is_closing():
+                # The client is gone: it would never see the answer and may try elsewhere,
+                # so a call that has not started does not act (one that has runs to its end).
+                log.warning("opcua: a method call dropped, its connection closed before its turn")
+                return
             try:
                 if not await original(self, seqhdr, body):
                     self._transport.close()  # as the request loop does when told to close
