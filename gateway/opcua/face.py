@@ -21,7 +21,7 @@ from gateway.opcua.call_lanes import install_call_lanes, pending_calls
 from gateway.opcua.certificate import ensure_certificate, server_files
 from gateway.opcua.methods import Audit, Methods, StatusRefusal
 from gateway.opcua.users import TokenUsers, install_caller_context
-from gateway.opcua.values import Shown, axis_values, controller_values, loop_values
+from gateway.opcua.values import Shown, Target, axis_values, controller_values, loop_values
 from gateway.service.audit import WriteAhead
 from gateway.service.axes import AxisService
 from gateway.service.config import OpcUaSettings
@@ -78,7 +78,8 @@ class OpcUaFace:
         self.state_dir = state_dir
         self.server = Server(user_manager=self.users)
         self.nodes: Nodes | None = None
-        self.targets: dict[str, int | None] = {}
+        #: per axis, the target of its latest operation (pulses) and when it was set
+        self.targets: dict[str, Target] = {}
         self._sent: dict[str, dict[str, Shown]] = {}
         self._dirty: set[str] = set()
         #: per loop, the time of its record's latest change (its values' source time)
@@ -113,7 +114,10 @@ class OpcUaFace:
         if event.kind is EventKind.OPERATION and event.topic.startswith("axis:"):
             axis = event.topic.partition(":")[2]
             target = event.data.get("target")
-            self.targets[axis] = target if isinstance(target, int) else None
+            pulses = target if isinstance(target, int) else None
+            held = self.targets.get(axis)
+            if held is None or held.pulses != pulses:  # its time: when it was set, not now
+                self.targets[axis] = Target(pulses, event.time)
             self._dirty.add(axis)
             self._wake.set()
         elif event.kind is EventKind.CONTROL:

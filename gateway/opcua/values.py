@@ -28,6 +28,7 @@ __all__ = [
     "HAS_HOMED",
     "LOOP_VARIABLES",
     "Shown",
+    "Target",
     "axis_values",
     "controller_values",
     "loop_values",
@@ -97,8 +98,17 @@ class Shown:
         return ua.DataValue(value, ua.StatusCode(status), SourceTimestamp=stamp)
 
 
-def axis_values(gateway: Runtime, ref: AxisRef, target: int | None) -> dict[str, Shown]:
-    """Every variable of axis ``ref``; ``target`` the pulses of its operation's target."""
+@dataclass(frozen=True)
+class Target:
+    """The target of an axis's latest operation (pulses; None: it has none) and the time it
+    was set (seconds since the epoch): ``TargetPosition``'s value and source time."""
+
+    pulses: int | None
+    time: float
+
+
+def axis_values(gateway: Runtime, ref: AxisRef, target: Target | None) -> dict[str, Shown]:
+    """Every variable of axis ``ref``; ``target`` its latest operation's target."""
     line = gateway.state.loop(ref.loop)
     ctl = gateway.state.controller(ref.loop, ref.body)
     state = gateway.state.axis(ref.loop, ref.body, ref.motor)
@@ -121,7 +131,7 @@ def axis_values(gateway: Runtime, ref: AxisRef, target: int | None) -> dict[str,
     shown = {
         "ActualPosition": user,
         "ActualPositionPulses": pulses,
-        "TargetPosition": Shown(ref.to_user(target), GOOD if target is not None else WAITING, when),
+        "TargetPosition": _target(ref, target),
         "Moving": read(state.moving),
         "LimitError": read(state.limit_error),
         "EmergencyError": read(state.emergency),
@@ -132,6 +142,12 @@ def axis_values(gateway: Runtime, ref: AxisRef, target: int | None) -> dict[str,
     if HAS_HOMED:
         shown["Homed"] = read(state.homed)
     return shown
+
+
+def _target(ref: AxisRef, target: Target | None) -> Shown:
+    if target is None or target.pulses is None:
+        return Shown(None, WAITING, None if target is None else target.time)
+    return Shown(ref.to_user(target.pulses), GOOD, target.time)
 
 
 def controller_values(gateway: Runtime, ref: ControllerRef) -> dict[str, Shown]:

@@ -13,7 +13,7 @@ from gateway.bus.state import StateCache
 from gateway.bus.state_types import Origin
 from gateway.errors import ConflictError, DeviceError, InvalidInputError, NotFoundError
 from gateway.opcua.status import freshness, refusal_status
-from gateway.opcua.values import AXIS_VARIABLES, Shown, axis_values, loop_values
+from gateway.opcua.values import AXIS_VARIABLES, Shown, Target, axis_values, loop_values
 from gateway.service.topology import AxisRef
 from gateway.service.views import wall_time
 
@@ -113,3 +113,13 @@ def test_after_a_reset_the_user_position_is_not_trusted_the_pulses_are() -> None
 def test_a_loop_s_values_carry_the_time_of_its_latest_change() -> None:
     shown = loop_values(_gateway(), "main", NOW + 5)
     assert shown["LineUp"] == Shown(True, S.Good, wall_time(NOW + 5))
+
+
+def test_the_target_carries_the_time_it_was_set_not_the_axis_reading_s() -> None:
+    set_at = wall_time(NOW + 7)
+    assert set_at is not None
+    shown = axis_values(_gateway(), AXIS, Target(2000, set_at))
+    assert shown["TargetPosition"] == Shown(20.0, S.Good, set_at)
+    assert axis_values(_gateway(), AXIS, None)["TargetPosition"].status == (
+        S.BadWaitingForInitialData
+    )
