@@ -130,7 +130,8 @@ class OpcUaFace:
             return loop_values(self.gateway, owner[5:], self._loop_changed.get(owner[5:]))
         if owner.count(".") == 2:
             return axis_values(self.gateway, topology.axis(owner), self.targets.get(owner))
-        shown = controller_values(self.gateway, topology.controller(owner))
+        ref = topology.controller(owner)
+        shown = controller_values(self.gateway, ref, self._loop_changed.get(ref.loop))
         return shown
 
     async def _write(self, owner: str) -> None:

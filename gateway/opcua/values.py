@@ -150,8 +150,11 @@ def _target(ref: AxisRef, target: Target | None) -> Shown:
     return Shown(ref.to_user(target.pulses), GOOD, target.time)
 
 
-def controller_values(gateway: Runtime, ref: ControllerRef) -> dict[str, Shown]:
-    """Every variable of controller ``ref`` (its nameplate's revision too)."""
+def controller_values(
+    gateway: Runtime, ref: ControllerRef, line_changed: float | None = None
+) -> dict[str, Shown]:
+    """Every variable of controller ``ref`` (its nameplate's revision too); ``line_changed``
+    the time of its loop record's latest change (``loop_values``)."""
     line = gateway.state.loop(ref.loop)
     ctl = gateway.state.controller(ref.loop, ref.body)
     when = wall_time(ctl.updated)
@@ -166,7 +169,8 @@ def controller_values(gateway: Runtime, ref: ControllerRef) -> dict[str, Shown]:
 
     online = Shown(ctl.online, WAITING if ctl.online is None else GOOD, when)
     if not up:
-        online = Shown(False, GOOD, wall_time(line.updated))  # the line down: certainly not
+        # the line down: certainly not online, since the line went down
+        online = Shown(False, GOOD, wall_time(line.updated or line_changed))
     local = gateway.control.view(ref).state is ControlState.LOCAL
     return {
         "Online": online,

@@ -13,8 +13,16 @@ from gateway.bus.state import StateCache
 from gateway.bus.state_types import Origin
 from gateway.errors import ConflictError, DeviceError, InvalidInputError, NotFoundError
 from gateway.opcua.status import freshness, refusal_status
-from gateway.opcua.values import AXIS_VARIABLES, Shown, Target, axis_values, loop_values
-from gateway.service.topology import AxisRef
+from gateway.opcua.values import (
+    AXIS_VARIABLES,
+    Shown,
+    Target,
+    axis_values,
+    controller_values,
+    loop_values,
+)
+from gateway.protocol.framing import Series
+from gateway.service.topology import AxisRef, ControllerRef
 from gateway.service.views import wall_time
 
 S = ua.StatusCodes
@@ -123,3 +131,13 @@ def test_the_target_carries_the_time_it_was_set_not_the_axis_reading_s() -> None
     assert axis_values(_gateway(), AXIS, None)["TargetPosition"].status == (
         S.BadWaitingForInitialData
     )
+
+
+def test_a_controller_on_a_line_down_is_not_online_since_the_line_went_down() -> None:
+    gateway = _gateway()
+    gateway.state.set_link("main", False, NOW + 3, cause="cut")
+    gateway.control = SimpleNamespace(view=lambda ref: SimpleNamespace(state=None))
+    ref = ControllerRef("main", "1", None, Series.DOLLAR, (AXIS, AXIS))
+    shown = controller_values(gateway, ref, NOW + 3)
+    assert shown["Online"] == Shown(False, S.Good, wall_time(NOW + 3))
+    assert shown["Mode"].status == S.BadNoCommunication
