@@ -4,9 +4,9 @@
 //    "pki": "<a folder for the client's certificate>", "steps": [...]}
 // Steps: {"op": "browse", "node"}, {"op": "read", "node"}, {"op": "call", "object",
 // "method", "args": [["Double", 5], ["String", "user"]]}, {"op": "monitor", "name", "node"},
-// {"op": "await", "name", "value" | "status", "timeout"} (until the item reports `value`,
-// or a value of status `status`), {"op": "parallel", "steps": [...]} (sent at once; the
-// order their answers came in).
+// {"op": "await", "name", "value" | "status", "timeout", "latest"?} (until the item reports
+// `value`, or a value of status `status`; with "latest": until its latest report is that),
+// {"op": "parallel", "steps": [...]} (sent at once; the order their answers came in).
 // Prints one JSON object: {"connected", "error"?, "results": [...]} (a result per step).
 // An array of scenarios runs them one after the other (one process: node-opcua loads once)
 // and prints an array of those objects.
@@ -78,17 +78,25 @@ async function runStep(context, step) {
       { samplingInterval: 0, discardOldest: true, queueSize: 100 },
       TimestampsToReturn.Both,
     );
-    item.on("changed", (dv) => seen.push(shown(dv)));
+    item.on("changed", (dv) => {
+      const report = shown(dv);
+      seen.push(report);
+      context.latest[step.name] = report;
+    });
     items[step.name] = seen;
     return { status: "Good" };
   } else if (step.op === "await") {
     // what the item reported since the last await of it, until `value` came
     const seen = items[step.name];
     const until = Date.now() + (step.timeout || 20000);
-    // a Good `value`, or (with "status") the first report of that status
-    const hit = step.status
-      ? () => seen.some((s) => s.status === step.status)
-      : () => seen.some((s) => s.status === "Good" && s.value === step.value);
+    // a Good `value`, or (with "status") the first report of that status; with "latest",
+    // until the item's latest report is that (the item may have reported it before)
+    const wanted = step.status
+      ? (s) => s.status === step.status
+      : (s) => s.status === "Good" && s.value === step.value;
+    const hit = step.latest
+      ? () => context.latest[step.name] !== undefined && wanted(context.latest[step.name])
+      : () => seen.some(wanted);
     while (!hit() && Date.now() < until) {
       await new Promise((resolve) => setTimeout(resolve, 20));
     }
@@ -136,7 +144,7 @@ async function run(scenario, out) {
       : { type: UserTokenType.Anonymous };
     session = await client.createSession(identity);
     out.connected = true;
-    const context = { session, items: {}, subscription: null };
+    const context = { session, items: {}, latest: {}, subscription: null };
     for (const step of scenario.steps || []) {
       out.results.push(await runStep(context, step));
     }
