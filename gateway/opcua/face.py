@@ -11,15 +11,17 @@ from __future__ import annotations
 
 import asyncio
 import logging
+import time
 from typing import Any
 
 from asyncua import Server, ua
 
 from gateway.opcua.address_space import Nodes, build
+from gateway.opcua.call_lanes import install_call_lanes, pending_calls
 from gateway.opcua.certificate import ensure_certificate, server_files
 from gateway.opcua.methods import Audit, Methods, StatusRefusal
 from gateway.opcua.users import TokenUsers, install_caller_context
-from gateway.opcua.values import Shown, axis_values, controller_values, loop_values
+from gateway.opcua.values import Shown, Target, axis_values, controller_values, loop_values
 from gateway.service.audit import WriteAhead
 from gateway.service.axes import AxisService
 from gateway.service.config import OpcUaSettings
@@ -34,6 +36,8 @@ log = logging.getLogger("gateway.opcua")
 
 #: Owners (axes, controllers, loops) written between two yields to the event loop.
 YIELD_EVERY = 16
+#: Seconds the face waits at its stop for method calls still running.
+CALLS_AT_STOP = 10.0
 
 S = ua.VariantType.String
 D = ua.VariantType.Double
@@ -74,9 +78,12 @@ class OpcUaFace:
         self.state_dir = state_dir
         self.server = Server(user_manager=self.users)
         self.nodes: Nodes | None = None
-        self.targets: dict[str, int | None] = {}
+        #: per axis, the target of its latest operation (pulses) and when it was set
+        self.targets: dict[str, Target] = {}
         self._sent: dict[str, dict[str, Shown]] = {}
         self._dirty: set[str] = set()
+        #: per loop, the time of its record's latest change (its values' source time)
+        self._loop_changed: dict[str, float] = {}
         self._wake = asyncio.Event()
         self._writer: asyncio.Task[None] | None = None
         self._unlisten: list[Any] = []
@@ -87,6 +94,8 @@ class OpcUaFace:
         """Synchronous, no I/O: mark what moved and wake the writer."""
         loop = change.loop
         if change.body is None:
+            # (a mirrored loop record has no reading time: then when the face heard of it)
+            self._loop_changed[loop] = change.time or time.monotonic()
             self._dirty.add(f"loop:{loop}")
             if "up" in change.values:
                 for ctl in self.gateway.topology.controllers(loop):
@@ -105,7 +114,10 @@ class OpcUaFace:
         if event.kind is EventKind.OPERATION and event.topic.startswith("axis:"):
             axis = event.topic.partition(":")[2]
             target = event.data.get("target")
-            self.targets[axis] = target if isinstance(target, int) else None
+            pulses = target if isinstance(target, int) else None
+            held = self.targets.get(axis)
+            if held is None or held.pulses != pulses:  # its time: when it was set, not now
+                self.targets[axis] = Target(pulses, event.time)
             self._dirty.add(axis)
             self._wake.set()
         elif event.kind is EventKind.CONTROL:
@@ -115,10 +127,11 @@ class OpcUaFace:
     def _shown(self, owner: str) -> dict[str, Shown]:
         topology = self.gateway.topology
         if owner.startswith("loop:"):
-            return loop_values(self.gateway, owner[5:])
+            return loop_values(self.gateway, owner[5:], self._loop_changed.get(owner[5:]))
         if owner.count(".") == 2:
             return axis_values(self.gateway, topology.axis(owner), self.targets.get(owner))
-        shown = controller_values(self.gateway, topology.controller(owner))
+        ref = topology.controller(owner)
+        shown = controller_values(self.gateway, ref, self._loop_changed.get(ref.loop))
         return shown
 
     async def _write(self, owner: str) -> None:
@@ -160,6 +173,7 @@ class OpcUaFace:
     async def start(self) -> None:
         """Build the address space, load or make the certificate, listen."""
         install_caller_context()
+        install_call_lanes()
         # asyncua narrates every node it adds at INFO: thousands of lines for a cell
         logging.getLogger("asyncua").setLevel(logging.WARNING)
         settings = self.settings
@@ -190,6 +204,8 @@ class OpcUaFace:
             self.gateway.state.changes.subscribe(self._on_change),
             self.gateway.events.subscribe(self._on_event),
         ]
+        # the loops' state as the face finds it: its source time is now (a change sets it)
+        self._loop_changed = {loop.name: time.monotonic() for loop in self.gateway.topology.loops()}
         self._dirty.update(
             self.nodes.variables.keys()
             - {k for k in self.nodes.variables if k.endswith("/Identification")}
@@ -217,6 +233,11 @@ class OpcUaFace:
             self._writer.cancel()
             await asyncio.gather(self._writer, return_exceptions=True)
         await self.server.stop()
+        calls = pending_calls()
+        if calls:  # a call that acts is let finish (its answer has nobody to go to)
+            _, late = await asyncio.wait(calls, timeout=CALLS_AT_STOP)
+            for task in late:
+                task.cancel()
 
     async def _add_methods(self, nodes: Nodes) -> None:
         idx, m = nodes.index, self.methods

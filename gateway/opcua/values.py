@@ -28,6 +28,7 @@ __all__ = [
     "HAS_HOMED",
     "LOOP_VARIABLES",
     "Shown",
+    "Target",
     "axis_values",
     "controller_values",
     "loop_values",
@@ -35,8 +36,12 @@ __all__ = [
 
 V = ua.VariantType
 
-#: Whether the state cache knows if an axis has found its origin (then ``Homed`` is shown).
-HAS_HOMED = any(f.name == "homed" for f in dataclasses.fields(AxisState))
+#: ``AxisState.origin`` after a controller reset (the bus's ``Origin.LOST``, a string enum).
+ORIGIN_LOST = "lost"
+
+#: Whether the state cache knows if an axis has found its origin (then ``Homed`` is shown;
+#: ``AxisState.homed`` is a property of its ``origin``, not a field).
+HAS_HOMED = hasattr(AxisState, "homed")
 
 #: Per axis, after OPC 40010 ``AxisType.ParameterSet`` where it has a name for it.
 AXIS_VARIABLES: dict[str, ua.VariantType] = {
@@ -79,44 +84,77 @@ class Shown:
     time: float | None
 
     def data_value(self, variant: ua.VariantType) -> ua.DataValue:
-        """The DataValue to write; a Bad status carries no value (never a number to trust)."""
-        bad = ua.StatusCode(self.status).is_bad()
-        value = ua.Variant(None) if bad or self.value is None else ua.Variant(self.value, variant)
+        """The DataValue to write; a Bad status carries no value (never a number to trust).
+
+        A value that is not known is never Good nor Uncertain: asyncua refuses to write an
+        empty variant to a typed variable unless the status is Bad, and the refusal would
+        leave the variable showing its previous value as if it were current."""
+        status = self.status
+        if self.value is None and not ua.StatusCode(status).is_bad():
+            status = WAITING
+        bad = ua.StatusCode(status).is_bad()
+        value = ua.Variant(None) if bad else ua.Variant(self.value, variant)
         stamp = None if self.time is None else datetime.fromtimestamp(self.time, UTC)
-        return ua.DataValue(value, ua.StatusCode(self.status), SourceTimestamp=stamp)
+        return ua.DataValue(value, ua.StatusCode(status), SourceTimestamp=stamp)
 
 
-def axis_values(gateway: Runtime, ref: AxisRef, target: int | None) -> dict[str, Shown]:
-    """Every variable of axis ``ref``; ``target`` the pulses of its operation's target."""
+@dataclass(frozen=True)
+class Target:
+    """The target of an axis's latest operation (pulses; None: it has none) and the time it
+    was set (seconds since the epoch): ``TargetPosition``'s value and source time."""
+
+    pulses: int | None
+    time: float
+
+
+def axis_values(gateway: Runtime, ref: AxisRef, target: Target | None) -> dict[str, Shown]:
+    """Every variable of axis ``ref``; ``target`` its latest operation's target."""
     line = gateway.state.loop(ref.loop)
     ctl = gateway.state.controller(ref.loop, ref.body)
     state = gateway.state.axis(ref.loop, ref.body, ref.motor)
     when = wall_time(state.updated)
-    status = freshness(
-        line_up=line.up, online=ctl.online, known=state.position is not None, stale=state.stale
-    )
-    flags = freshness(
-        line_up=line.up, online=ctl.online, known=state.updated is not None, stale=state.stale
-    )
+
+    def read(value: Any) -> Shown:
+        known = value is not None and state.updated is not None
+        return Shown(
+            value,
+            freshness(line_up=line.up, online=ctl.online, known=known, stale=state.stale),
+            when,
+        )
+
+    pulses = read(state.position)
+    # After a controller reset the counter no longer counts from the machine's origin: a
+    # position in user units is not to be trusted until the axis is homed (as REST's
+    # position_user is null); the pulses are still what the controller counts.
+    lost = state.origin == ORIGIN_LOST
+    user = Shown(None, WAITING, when) if lost else read(ref.to_user(state.position))
     shown = {
-        "ActualPosition": Shown(ref.to_user(state.position), status, when),
-        "ActualPositionPulses": Shown(state.position, status, when),
-        "TargetPosition": Shown(ref.to_user(target), GOOD if target is not None else WAITING, when),
-        "Moving": Shown(state.moving, flags, when),
-        "LimitError": Shown(state.limit_error, flags, when),
-        "EmergencyError": Shown(state.emergency, flags, when),
-        "CommandError": Shown(state.command_error, flags, when),
-        "StepOutError": Shown(state.step_out, flags, when),
+        "ActualPosition": user,
+        "ActualPositionPulses": pulses,
+        "TargetPosition": _target(ref, target),
+        "Moving": read(state.moving),
+        "LimitError": read(state.limit_error),
+        "EmergencyError": read(state.emergency),
+        "CommandError": read(state.command_error),
+        "StepOutError": read(state.step_out),
         "Stale": Shown(state.stale, GOOD, when),
     }
     if HAS_HOMED:
-        homed = getattr(state, "homed", None)
-        shown["Homed"] = Shown(homed, flags if homed is not None else WAITING, when)
+        shown["Homed"] = read(state.homed)
     return shown
 
 
-def controller_values(gateway: Runtime, ref: ControllerRef) -> dict[str, Shown]:
-    """Every variable of controller ``ref`` (its nameplate's revision too)."""
+def _target(ref: AxisRef, target: Target | None) -> Shown:
+    if target is None or target.pulses is None:
+        return Shown(None, WAITING, None if target is None else target.time)
+    return Shown(ref.to_user(target.pulses), GOOD, target.time)
+
+
+def controller_values(
+    gateway: Runtime, ref: ControllerRef, line_changed: float | None = None
+) -> dict[str, Shown]:
+    """Every variable of controller ``ref`` (its nameplate's revision too); ``line_changed``
+    the time of its loop record's latest change (``loop_values``)."""
     line = gateway.state.loop(ref.loop)
     ctl = gateway.state.controller(ref.loop, ref.body)
     when = wall_time(ctl.updated)
@@ -131,7 +169,8 @@ def controller_values(gateway: Runtime, ref: ControllerRef) -> dict[str, Shown]:
 
     online = Shown(ctl.online, WAITING if ctl.online is None else GOOD, when)
     if not up:
-        online = Shown(False, GOOD, wall_time(line.updated))  # the line down: certainly not
+        # the line down: certainly not online, since the line went down
+        online = Shown(False, GOOD, wall_time(line.updated or line_changed))
     local = gateway.control.view(ref).state is ControlState.LOCAL
     return {
         "Online": online,
@@ -143,10 +182,12 @@ def controller_values(gateway: Runtime, ref: ControllerRef) -> dict[str, Shown]:
     }
 
 
-def loop_values(gateway: Runtime, name: str) -> dict[str, Shown]:
-    """Every variable of loop ``name``: its line and its counters."""
+def loop_values(gateway: Runtime, name: str, changed: float | None = None) -> dict[str, Shown]:
+    """Every variable of loop ``name``: its line and its counters. ``changed``: the time of the
+    loop record's latest change, the source time when the record has no ``updated`` of its
+    own (the line's state and the counters are not readings of a controller)."""
     state = gateway.state.loop(name)
-    when = wall_time(state.updated)
+    when = wall_time(state.updated if state.updated is not None else changed)
     shown = {
         "LineUp": Shown(state.up, GOOD, when),
         "DownCause": Shown(state.cause or "", GOOD, when),

@@ -83,7 +83,9 @@ class Cell:
     async def control(self, **request: Any) -> dict[str, Any]:
         """One request to the simulator's control surface."""
         reader, writer = await asyncio.wait_for(
-            asyncio.open_connection("127.0.0.1", self.control_port), WAIT
+            # a trace of the whole run is longer than a stream's default line limit
+            asyncio.open_connection("127.0.0.1", self.control_port, limit=2**24),
+            WAIT,
         )
         try:
             writer.write(json.dumps(request).encode() + b"\n")

@@ -45,7 +45,8 @@ async def test_browse_names_from_the_configuration_and_values_with_their_source_
     assert r[3]["names"] == ["z", "main.1.2"]  # an axis without a name: its id
     names = set(r[4]["names"])
     assert {"ActualPosition", "ActualPositionPulses", "TargetPosition", "Moving", "Stale",
-            "LimitError", "EmergencyError", "CommandError", "StepOutError"} <= names  # fmt: skip
+            "LimitError", "EmergencyError", "CommandError", "StepOutError",
+            "Homed"} <= names  # fmt: skip
     assert {"EngineeringUnits", "EURange"} <= set(r[5]["names"])
     position = r[6]
     assert position["status"] == "Good" and position["value"] == 0
@@ -53,6 +54,7 @@ async def test_browse_names_from_the_configuration_and_values_with_their_source_
     assert r[7]["status"] == "Good" and r[7]["value"].startswith("1.")
     assert r[8]["value"] == "RC-233"
     assert r[9] == {**r[9], "status": "Good", "value": True}
+    assert r[9]["sourceTimestamp"] is not None  # the line's state has a time too
     assert r[10]["value"] is True
 
 
@@ -60,12 +62,21 @@ async def test_a_move_s_positions_arrive_and_each_method_answers(cell: Cell) -> 
     pulses = node("main.1.1/ActualPositionPulses")
     r = await _as_operator(cell, [
         {"op": "monitor", "name": "p", "node": pulses},
-        call("main.1.1", "MoveAbsolute", ("Double", 20), ("String", "user")),
-        # the controller moves: a second motion is a conflict
-        call("main.1.1", "MoveAbsolute", ("Double", 5), ("String", "user")),
-        {"op": "await", "name": "p", "value": 2000},
+        {"op": "monitor", "name": "m", "node": node("main.1.1/Moving")},
+        # the controller moves: a second motion is a conflict. Sent together, the second runs
+        # as soon as the first is accepted (a session's calls keep their order), not a client's
+        # round trip later, when on a busy machine a short move could be over already.
+        {"op": "parallel", "steps": [
+            call("main.1.1", "MoveAbsolute", ("Double", 60), ("String", "user")),
+            call("main.1.1", "MoveAbsolute", ("Double", 5), ("String", "user")),
+        ]},
+        {"op": "await", "name": "p", "value": 6000},
+        # at the target, the gateway may not have read yet that it stopped: until it has, a
+        # motion is a conflict (on a busy machine the next call came first)
+        {"op": "await", "name": "m", "value": False, "latest": True},
         call("main.1.1", "MoveRelative", ("Double", -5), ("String", "user")),
-        {"op": "await", "name": "p", "value": 1500},
+        {"op": "await", "name": "p", "value": 5500},
+        {"op": "await", "name": "m", "value": False, "latest": True},
         call("main.1.1", "MoveAbsolute", ("Double", 500), ("String", "user")),
         call("main.1.1", "MoveAbsolute", ("Double", 1.5), ("String", "pulse")),
         call("main.1.1", "MoveAbsolute", ("Double", 1), ("String", "inch")),
@@ -76,20 +87,23 @@ async def test_a_move_s_positions_arrive_and_each_method_answers(cell: Cell) -> 
         call("main.1", "Stop", ("String", "")),
         call("loop:main", "Stop", ("String", "decelerate")),
     ])  # fmt: skip
-    moved, conflict, reached, relative, reached2, beyond, fraction, unit, home, homed = r[1:11]
+    together, reached, stopped, relative, reached2, stopped2 = r[2:8]
+    moved, conflict = together["results"]
+    beyond, fraction, unit, home, homed = r[8:13]
+    assert stopped["status"] == stopped2["status"] == "Good", (stopped, stopped2)
     assert moved["status"] == "Good" and moved["outputs"][0].startswith("op-")
     assert conflict["status"] == "BadInvalidState"
     assert reached["status"] == "Good", reached
     seen = [s["value"] for s in reached["seen"] if s["status"] == "Good"]
     # positions arrive while it moves, in order, to the target (the reading before the move
     # may be Uncertain on a busy machine: its poll came late, so it is not counted here)
-    assert len(seen) >= 2 and seen[0] < 2000 and seen[-1] == 2000 and seen == sorted(seen)
+    assert len(seen) >= 2 and seen[0] < 6000 and seen[-1] == 6000 and seen == sorted(seen)
     assert relative["status"] == "Good" and reached2["status"] == "Good"
     assert beyond["status"] == "BadOutOfRange"  # soft_max 100 mm
     assert fraction["status"] == "BadOutOfRange"  # not a whole number of pulses
     assert unit["status"] == "BadInvalidArgument"
     assert home["status"] == "Good" and homed["status"] == "Good"
-    stop, ack, ctl_stop, loop_stop = r[11:]
+    stop, ack, ctl_stop, loop_stop = r[13:]
     assert stop == {"status": "Good", "outputs": ["done"]}
     assert ack["status"] == "Good"
     assert ctl_stop == {"status": "Good", "outputs": ["done"]}
