@@ -20,6 +20,7 @@ from typing import Any
 from asyncua import ua
 
 from gateway.errors import GatewayError
+from gateway.opcua.call_lanes import stopped_since_queued
 from gateway.opcua.status import refusal_status
 from gateway.opcua.users import GatewayUser, caller
 from gateway.service.audit import WriteAhead
@@ -165,6 +166,8 @@ class Methods:
         motion: bool = False,
         stop: bool = False,
     ) -> Any:
+        if motion:
+            act = _unless_stopped_since(axis, act)
         return await self.call(f"axes/{axis}/{name}", body, act, motion=motion, stop=stop)
 
     # ------------------------------------------------------------------ stop-all
@@ -222,3 +225,21 @@ def _utc() -> str:
     now = time.time()
     stamp = time.strftime("%Y-%m-%dT%H:%M:%S", time.gmtime(now))
     return f"{stamp}.{int(now % 1 * 1000):03d}Z"
+
+
+def _unless_stopped_since(
+    axis: str, act: Callable[[str], Awaitable[Any]]
+) -> Callable[[str], Awaitable[Any]]:
+    """``act``, refused when a stop covering ``axis`` was sent on the session after this call
+    and overtook it (``call_lanes``): the client asked for the stop last."""
+
+    async def unless_stopped(holder: str) -> Any:
+        target = stopped_since_queued(axis)
+        if target is not None:
+            raise StatusRefusal(
+                ua.StatusCodes.BadInvalidState,
+                f"a Stop of {target} sent after this call on the session came first: not sent",
+            )
+        return await act(holder)
+
+    return unless_stopped

@@ -10,6 +10,7 @@ one session at once, without waiting for an answer, and reports the order the an
 from __future__ import annotations
 
 import asyncio
+import json
 from typing import Any
 
 import pytest
@@ -56,6 +57,44 @@ async def test_a_read_sent_behind_calls_is_answered_before_them_and_the_calls_ke
     frames = [r["data"] for r in await _heard_since(cell, since)]
     assert "$122000\r" in frames and "$13\r" in frames and "$1S\r" in frames, frames
     assert frames.index("$122000\r") < frames.index("$13\r") < frames.index("$1S\r"), frames
+
+
+async def test_a_stop_overtakes_the_calls_waiting_before_it_and_the_motions_it_covers_are_refused(
+    cell: Cell,
+) -> None:
+    # Sent at once on one session: a move of controller 2 (running when the rest arrive), a
+    # move of controller 1, a stop of controller 1's axis, another move of controller 1. The
+    # stop waits for the running call only; the move of controller 1 it overtook is refused;
+    # the move sent after the stop runs after it.
+    since = (await cell.control(op="trace"))["trace"][-1]["seq"] + 1
+    answer = await run_client(cell.endpoint, cell.pki, [
+        {"op": "parallel", "steps": [
+            call("main.2.1", "MoveRelative", ("Double", 5), ("String", "pulse")),
+            call("main.1.1", "MoveRelative", ("Double", 5), ("String", "pulse")),
+            call("main.1.1", "Stop", ("String", "immediate")),
+            call("main.1.1", "MoveRelative", ("Double", 0.05), ("String", "user")),
+        ]},
+    ], user=OPERATOR[0], password=OPERATOR[1])  # fmt: skip
+    assert answer["connected"] and "error" not in answer, answer
+    first, overtaken, stop, after = answer["results"][0]["results"]
+    assert first["status"] == "Good" and first["outputs"][0].startswith("op-"), first
+    assert overtaken["status"] == "BadInvalidState", overtaken
+    assert stop == {"status": "Good", "outputs": ["done"]}
+    assert after["status"] == "Good" and after["outputs"][0].startswith("op-"), after
+    # Controller 1 heard the stop, then the move sent after it (5 pulses, 0.05 mm); nothing
+    # of the overtaken one was sent before the stop.
+    heard = [r["data"] for r in await _heard_since(cell, since)]
+    assert "$1S\r" in heard, heard
+    # (2: position data, 3: absolute start, 4: relative start; §10 2, 3, 4)
+    moves = [i for i, f in enumerate(heard) if f.startswith(("$12", "$13", "$14"))]
+    assert moves and min(moves) > heard.index("$1S\r"), heard
+    # The refusal is audited as any refused call: its intent, then its outcome naming why.
+    lines = (cell.workdir / "audit.jsonl").read_text().splitlines()
+    refused = [
+        e for e in map(json.loads, lines)
+        if e.get("path") == "axes/main.1.1/MoveRelative" and e.get("status") == "BadInvalidState"
+    ]  # fmt: skip
+    assert refused and "Stop of main.1.1" in refused[-1]["result"], refused
 
 
 # ---------------------------------------------------------------- the lane, in process
