@@ -123,7 +123,11 @@ class Kind(StrEnum):
     REOPEN = "reopen"  # client: (REOPEN, loop, baud) the line at another rate, no answer
     POLLING = "polling"  # client: (POLLING, rid, loop, on) start or stop the loop's poller
     RESYNC = "resync"  # client: (RESYNC,) send a snapshot again (a change was missed)
-    SNAPSHOT = "snapshot"  # worker: (SNAPSHOT, Snapshot, {loop: (LinkState, cause)})
+    ACKNOWLEDGE = "ack"  # client: (ACKNOWLEDGE, loop, body, motor, kinds) clear latches
+    TRACE = "trace"  # client: (TRACE, loop, all, bodies, hex_mode, clear) the trace's switches
+    SNAPSHOT = "snapshot"  # worker: (SNAPSHOT, Snapshot, {loop: (LinkState, cause, ...)})
+    TRACED = "traced"  # worker: (TRACED, loop, TraceRecord) one record of a traced loop
+    LINE = "line"  # worker: (LINE, loop, baud, adapter report) the line as last opened
     CHANGE = "change"  # worker: (CHANGE, Change)
     EVENT = "event"  # worker: (EVENT, loop, BusEvent, LinkState, cause)
     RESULT = "result"  # worker: (RESULT, rid, TransactionResult)
