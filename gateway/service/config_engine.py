@@ -4,6 +4,10 @@
 configured loop in exactly one group, no unknown name. Without it, each loop has a worker
 of its own on a host with more than one core, and one worker runs every loop on a host with
 one (two processes on one core only take turns). ``worker_groups`` decides.
+
+``restart_backoff`` is how long a worker that died stays down before it is started again:
+real seconds, one a death in a row, the last repeated (a worker that lived a minute starts
+the list over).
 """
 
 from __future__ import annotations
@@ -11,7 +15,7 @@ from __future__ import annotations
 import os
 from collections.abc import Sequence
 
-from pydantic import Field
+from pydantic import Field, PositiveFloat
 
 from gateway.service.config_base import Name, Strict
 
@@ -23,6 +27,10 @@ class EngineSettings(Strict):
 
     #: the loops of each worker process; None: the default of ``worker_groups``
     workers: list[list[Name]] | None = Field(None, min_length=1)
+    #: real seconds before each restart of a worker that died, the last repeated
+    restart_backoff: list[PositiveFloat] = Field(
+        [0.5, 1.0, 2.0, 4.0, 8.0, 15.0], min_length=1, max_length=16
+    )
 
 
 def check_groups(groups: Sequence[Sequence[str]], loops: Sequence[str]) -> None:

@@ -11,13 +11,12 @@ read the schedulers and cache of one process.
 from __future__ import annotations
 
 import asyncio
-from collections.abc import Sequence
 
 from gateway.engine.mirror import StateMirror
 from gateway.engine.proxy import SchedulerProxy, WorkerClient
 from gateway.engine.remote import PollerProxy
 from gateway.engine.spec import LoopSpec
-from gateway.engine.supervisor import BACKOFF, WorkerSupervisor
+from gateway.engine.supervisor import WorkerSupervisor
 from gateway.service.config import GatewayConfig
 from gateway.service.config_engine import worker_groups
 from gateway.service.runtime.loop_configs import loop_config, poll_config
@@ -36,7 +35,6 @@ class LineWorkers:
         time_scale: float,
         *,
         cores: int | None = None,
-        backoff: Sequence[float] = BACKOFF,
     ) -> None:
         self.mirror = StateMirror()
         self.schedulers: dict[str, SchedulerProxy] = {}
@@ -61,6 +59,7 @@ class LineWorkers:
             client = WorkerClient(worker, group, self.mirror, {s.name: s.config for s in specs})
             self.schedulers.update(client.proxies)
             self.pollers.update(client.pollers)
+            backoff = config.engine.restart_backoff
             self.supervisors.append(WorkerSupervisor(client, specs, backoff=backoff))
 
     def supervisor_of(self, loop: str) -> WorkerSupervisor:
