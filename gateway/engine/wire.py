@@ -24,8 +24,8 @@ from typing import Any
 
 from gateway.bus.requests import BusError, DeadlineExpired, LoopDown, TransactionError
 from gateway.errors import GatewayError
-from gateway.protocol.models import Command
-from gateway.protocol.registry import parse
+from gateway.protocol.models import Command, model_name
+from gateway.protocol.registry import REGISTRY, parse
 
 __all__ = [
     "Channel",
@@ -98,6 +98,15 @@ def model_of(model: str, fields: dict[str, Any]) -> Command:
     names this function): the fields are those of a model that was valid when sent."""
     if model not in _MODELS:
         _MODELS.update(_command_models())
+    if model not in _MODELS:
+        # the models are made when a form is first used: a worker that has parsed no program
+        # yet has none of the program statements' (``/J``, ``/D``), the API process had them
+        for entry in REGISTRY.entries:
+            if model_name(entry.key) == model:
+                _MODELS[model] = entry.model
+                break
+        else:
+            raise ValueError(f"{model} is no command form of the manual")
     return _MODELS[model].model_construct(**fields)
 
 
