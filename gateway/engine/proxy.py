@@ -157,6 +157,8 @@ class WorkerClient:
         }
         for loop in self.proxies:
             mirror.route(loop, self._acknowledge)
+        #: the controllers whose reply events the worker relays (None: all)
+        self.followed: frozenset[tuple[str, str]] | None = None
         self._ids = itertools.count(1)
         self._waiting: dict[int, tuple[str, asyncio.Future[Any]]] = {}
         self._writers: tuple[asyncio.StreamWriter, asyncio.StreamWriter] | None = None
@@ -194,6 +196,12 @@ class WorkerClient:
             for writer in writers:
                 writer.close()
         self._gone(cause, retry_after)
+
+    def follow(self, controllers: frozenset[tuple[str, str]]) -> None:
+        """Have the worker relay the reply events of ``controllers`` (loop, body) only: the
+        ones an operation watches. A new worker is told again when it attaches."""
+        self.followed = controllers
+        self.tell((Kind.FOLLOW, controllers))
 
     def _acknowledge(
         self, loop: str, body: str, motor: int | None, kinds: tuple[ErrorKind, ...] | None
@@ -299,4 +307,6 @@ class WorkerClient:
                     up = LinkUp(loop=loop, time=time.monotonic())
                     self.mirror.relay(up)
                     proxy.events.publish(up)
+            if self.followed is not None:  # nor does it know whose replies to skip
+                self.tell((Kind.FOLLOW, self.followed))
             self.synced.set()

@@ -134,6 +134,7 @@ class Kind(StrEnum):
     RESYNC = "resync"  # client: (RESYNC,) send a snapshot again (a change was missed)
     ACKNOWLEDGE = "ack"  # client: (ACKNOWLEDGE, loop, body, motor, kinds) clear latches
     TRACE = "trace"  # client: (TRACE, loop, all, bodies, hex_mode, clear) the trace's switches
+    FOLLOW = "follow"  # client: (FOLLOW, {(loop, body), ...}) whose reply events to relay
     SNAPSHOT = "snapshot"  # worker: (SNAPSHOT, Snapshot, {loop: (LinkState, cause, ...)})
     TRACED = "traced"  # worker: (TRACED, loop, TraceRecord) one record of a traced loop
     LINE = "line"  # worker: (LINE, loop, baud, adapter report) the line as last opened

@@ -10,6 +10,10 @@ stop reaches the scheduler as soon as its bytes are in, whatever the request cha
 ``serve`` returns when the request channel closes (the client went away); the loops keep
 running, and a client that connects again gets a fresh snapshot.
 
+Reply events (``ReplyObserved``: one or more a poll) are relayed for every controller until
+the client says which it follows (``FOLLOW``: those an operation watches; the state reaches
+the client as changes), so that an idle poll crosses the channel as one ``TransactionDone``.
+
 The rest of what the API process reads of a scheduler follows it too: the line's rate and
 adapter report with every link event (``LINE``, before the event), the trace's records while
 the client has it switched on (``TRACED``), and the client's acknowledges of latched errors
@@ -24,7 +28,7 @@ import logging
 from collections.abc import Callable, Mapping
 from typing import Any
 
-from gateway.bus.events import BusEvent, LinkDown, LinkUp
+from gateway.bus.events import BusEvent, LinkDown, LinkUp, ReplyObserved
 from gateway.bus.poller import Poller
 from gateway.bus.requests import TransactionError
 from gateway.bus.scheduler import LoopScheduler
@@ -50,6 +54,8 @@ class LineWorker:
         self.state = state
         self.pollers = dict(pollers or {})
         self._tasks: set[asyncio.Task[None]] = set()
+        #: the controllers whose reply events the client reads (None: every controller's)
+        self.followed: frozenset[tuple[str, str]] | None = None
 
     def links(self) -> dict[str, tuple[Any, ...]]:
         """Every loop's link state, cause, queue depth, counters and adapter report, as the
@@ -65,6 +71,7 @@ class LineWorker:
             if not writer.is_closing():
                 writer.write(encode(message))
 
+        self.followed = None  # a new client reads every reply until it says otherwise
         send((Kind.SNAPSHOT, self.state.snapshot(), self.links()))
         unsubscribe: list[Callable[[], None]] = [
             self.state.changes.subscribe(lambda change: send((Kind.CHANGE, change)))
@@ -85,6 +92,8 @@ class LineWorker:
                     _, loop, body, motor, kinds = message
                     now = self._scheduler(loop).clock()
                     self.state.acknowledge(loop, body, now, motor=motor, kinds=kinds)
+                elif message[0] == Kind.FOLLOW:
+                    self.followed = frozenset(message[1])
                 elif message[0] == Kind.TRACE:
                     _trace_switches(self._scheduler(message[1]), *message[2:])
                 else:
@@ -104,6 +113,13 @@ class LineWorker:
         self, name: str, scheduler: LoopScheduler, send: Callable[[tuple[Any, ...]], None]
     ) -> Callable[[BusEvent], None]:
         def relay(event: BusEvent) -> None:
+            followed = self.followed
+            if (
+                followed is not None
+                and type(event) is ReplyObserved
+                and (event.loop, event.body) not in followed
+            ):
+                return  # what it taught crosses as changes; nobody there reads the reply
             if isinstance(event, LinkUp | LinkDown):  # the line as (re)opened, before its news
                 send((Kind.LINE, name, scheduler.timing.baud, scheduler.transport.adapter))
             # the link as of the event: the client's proxy reads it without asking

@@ -62,6 +62,15 @@ class LineWorkers:
             backoff = config.engine.restart_backoff
             self.supervisors.append(WorkerSupervisor(client, specs, backoff=backoff))
 
+    def follow(self, controllers: frozenset[tuple[str, str]]) -> None:
+        """Relay the reply events of ``controllers`` (loop, body) only, each worker told of
+        its own."""
+        for supervisor in self.supervisors:
+            client = supervisor.client
+            own = frozenset(c for c in controllers if c[0] in client.proxies)
+            if own != client.followed:
+                client.follow(own)
+
     def supervisor_of(self, loop: str) -> WorkerSupervisor:
         """The supervisor of the worker that runs ``loop``."""
         return next(s for s in self.supervisors if loop in s.client.proxies)

@@ -34,6 +34,7 @@ from gateway.protocol.reply_parser import UnsolicitedKind
 from gateway.service.config import GatewayConfig
 from gateway.service.control import ControlStates
 from gateway.service.events import EventKind, ServiceEvent, ServiceEvents
+from gateway.service.runtime.followed import FollowedControllers
 from gateway.service.runtime.key_switch import KeySwitchReader
 from gateway.service.runtime.line_workers import LineWorkers
 from gateway.service.runtime.loop_configs import loop_config, poll_config
@@ -75,8 +76,11 @@ class Runtime:
         self.workers: LineWorkers | None = None
         self.schedulers: dict[str, LineScheduler]
         self.pollers: dict[str, LinePoller]
+        #: which controllers' replies the workers relay (None: in one process, no channel)
+        self.followed: FollowedControllers | None = None
         if transports is None:
             self.workers = workers or LineWorkers(config, self.topology, time_scale)
+            self.followed = FollowedControllers(self.events, self.workers.follow)
             self.state: StateCache = self.workers.mirror
             self.schedulers = dict(self.workers.schedulers)
             self.pollers = dict(self.workers.pollers)
@@ -123,6 +127,8 @@ class Runtime:
         """Start the workers (or open every loop: one attempt each) and start polling."""
         if self.workers is not None:
             await self.workers.start()  # each worker polls from its start
+            assert self.followed is not None
+            self.followed.start()
         else:
             await asyncio.gather(*(s.start() for s in self._local.values()))
             for poller in self._local_pollers.values():
