@@ -342,8 +342,11 @@ class StateCache:
         """The poller found the controller answering (or not): off and back, it has reloaded
         its settings from the EEPROM (§16), EP among them."""
         self.write_controller(now, loop, body, online=online, signed_positions=None)
-        if not online:  # switched off: nothing moves; power-on resets the selection (§16)
-            self.write_controller(now, loop, body, moving=False, selection_confirmed=False)
+        if not online:
+            # Silent is not switched off: a controller cut from the loop alone may still jog, so
+            # whether it moves is unknown, as on a dead loop; a power-on would reset the
+            # selection (§16), so it is in doubt too.
+            self.write_controller(now, loop, body, moving=None, selection_confirmed=False)
             for m in MOTORS:
                 # It may be switched off and on meanwhile: nothing read before counts for a
                 # check (the counters will tell whether it was reset, ``gateway.bus.origin``).

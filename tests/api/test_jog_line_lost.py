@@ -99,6 +99,44 @@ async def test_a_jog_whose_line_was_cut_is_stopped_when_the_loop_comes_back() ->
         ], stops
 
 
+async def test_a_jog_whose_controller_alone_went_silent_is_stopped_when_it_answers_again() -> None:
+    # Its own wiring on the current loop broken: the controller hears every frame and executes
+    # it, its replies are lost (the simulator's ``drop`` fault on body 1 alone). The loop stays
+    # up, controllers 2 and 3 answer; the jog goes on with nobody able to reach it.
+    async with running_app() as api:
+        controls = Controls(api.sim)
+        r = await api.client.post("/axes/x/jog", json={"direction": "cw", "speed": "low"})
+        assert r.status_code == 202, r.text
+        ident = json_of(r)["id"]
+        await api.until(lambda: api.operations.get(ident).state is OperationState.MOVING)
+        controls.fault("drop", body="1", probability=1.0)
+        await until_event(api, lambda: api.operations.get(ident).state is OperationState.UNKNOWN)
+        lost = json_of(await api.client.get(f"/operations/{ident}"))
+        assert lost["state"] == "unknown" and lost["error"]["kind"] == "offline", lost
+        assert api.gateway.ready()  # the loop itself is up
+        assert jogging(api)
+        # Silent is not switched off: the gateway does not say the controller stands still.
+        assert api.cached("1").online is False and api.cached("1").moving is None
+        mark = api.mark()
+        controls.clear_faults(body="1")
+        await until_event(api, lambda: "SS" in api.heard("1", mark))
+        await until_event(
+            api, lambda: api.operations.get(ident).state is not OperationState.UNKNOWN
+        )
+        assert not jogging(api)
+        assert api.heard("1", mark).count("SS") == 1 and "S" not in api.heard("1", mark)
+        final = json_of(await api.client.get(f"/operations/{ident}"))
+        assert final["state"] == "failed", final
+        assert final["position"] == api.position("1", 1) > 0
+        assert final["error"]["kind"] == "offline" and final["error"]["outcome"] == "not_done"
+        assert "controller " in final["error"]["detail"] and "$1SS" in final["error"]["detail"]
+        entries = json_of(await api.client.get("/audit"))["entries"]
+        stops = [e for e in entries if e.get("event") == "answer_stop"]
+        assert [(s["bytes_sent"], s["result"], s["operation"]) for s in stops] == [
+            (["$1SS"], "done", ident)
+        ], stops
+
+
 async def test_a_move_whose_line_was_cut_is_not_stopped_when_the_loop_comes_back() -> None:
     # A finite motion ends by itself: the restored line gets no stop for it.
     async with running_app() as api:

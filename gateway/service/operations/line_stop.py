@@ -1,4 +1,4 @@
-"""The stop of a jog whose loop went down while it ran, once the loop is up again.
+"""The stop of a jog whose line was lost while it ran, once the line is back.
 
 A jog runs only while someone holds it (the dashboard's hold-to-jog, a client that ends it
 with a stop). When its loop goes down mid-jog (a cut line, a pulled adapter, the link master's
@@ -16,9 +16,16 @@ Only jogs (``HOLD_TO_RUN``): a finite move or an origin search ends by itself, a
 are under way, a new motion on that controller is refused (409): it would be stopped by this
 ``SS``, and its motion would be judged in place of the jog's.
 
-If the loop goes down again before the stop was taken, the stop waits for the next link-up; a
-stop the controller refused (``>@``) or that was lost on an up loop for the whole read-back
-leaves the operation ``unknown``, saying the axis may still be moving.
+The same when only the jog's controller stopped answering (``offline``: its own wiring on the
+current loop, a failing receiver): silent is not switched off, and a controller that hears
+nothing jogs on. Its stop goes out once it answers again (the poller keeps asking it), audited
+as ``answer_stop``, with the error kind ``offline``. A controller that was switched off has
+stopped by itself: the stop then changes nothing, and the read-back says where it stands.
+
+If the loop goes down (or the controller silent) again before the stop was taken, the stop
+waits for the next link-up (or answer); a stop the controller refused (``>@``) or that was
+lost on an up loop for the whole read-back leaves the operation ``unknown``, saying the axis
+may still be moving.
 """
 
 from __future__ import annotations
@@ -29,10 +36,13 @@ from collections.abc import Callable
 from typing import Protocol
 
 from gateway.bus.scheduler import LinkState
+from gateway.bus.state_types import Change
 from gateway.service.operations.durable import Verdict, read_back_after_restart
 from gateway.service.operations.restart_stop import (
+    AT_ANSWER,
     AT_LINK_UP,
     HOLD_TO_RUN,
+    Occasion,
     RestartStop,
     link_up,
 )
@@ -43,8 +53,9 @@ __all__ = ["LOST_LINE", "LineStops"]
 
 log = logging.getLogger("gateway.service")
 
-#: The error kinds of an ``unknown`` end that mean the line was lost under the motion.
-LOST_LINE = frozenset({"loop_down"})
+#: The error kinds of an ``unknown`` end that mean the line was lost under the motion, and
+#: what its stop waits for: the loop up again, or the controller answering again.
+LOST_LINE: dict[str, Occasion] = {"loop_down": AT_LINK_UP, "offline": AT_ANSWER}
 
 
 class ResolvingBook(Protocol):
@@ -88,7 +99,7 @@ class LineStops:
         if op.kind not in HOLD_TO_RUN or error is None or error.kind not in LOST_LINE:
             return False
         self._pending[op.axis.loop, op.axis.body] = op
-        task = asyncio.ensure_future(self._stop(op))
+        task = asyncio.ensure_future(self._stop(op, LOST_LINE[error.kind]))
         self._tasks.add(task)
         task.add_done_callback(self._tasks.discard)
         return True
@@ -97,10 +108,10 @@ class LineStops:
         """The jog of controller ``loop.body`` still to be stopped or read back, if any."""
         return self._pending.get((loop, body))
 
-    async def _stop(self, op: Operation) -> None:
+    async def _stop(self, op: Operation, occasion: Occasion) -> None:
         key = (op.axis.loop, op.axis.body)
         try:
-            verdict = await self._stop_when_up(op)
+            verdict = await self._stop_when_up(op, occasion)
             state, error, position = verdict
             self._book.resolve(op, state, error, position)
             log.info("operation %s, its line lost mid-jog: %s", op.id, state.value)
@@ -108,9 +119,10 @@ class LineStops:
             if self._pending.get(key) is op:
                 del self._pending[key]
 
-    async def _stop_when_up(self, op: Operation) -> Verdict:
-        """Stop and read back ``op`` once its loop is up; again after each new outage that
-        came before the stop was taken."""
+    async def _stop_when_up(self, op: Operation, occasion: Occasion) -> Verdict:
+        """Stop and read back ``op`` once its loop is up (and, for ``AT_ANSWER``, its
+        controller answering); again after each new outage that came before the stop was
+        taken."""
         scheduler = self.gateway.scheduler(op.axis.loop)
         stops: list[RestartStop] = []
 
@@ -120,9 +132,32 @@ class LineStops:
 
         while True:
             await link_up(self.gateway, op.axis.loop, None)
-            verdict = await read_back_after_restart(self.gateway, op, told, AT_LINK_UP)
-            # Taken, or refused ('>@'): the controller answered; lost on a loop still up: the
-            # read-back gave up on it. Only a new outage is worth the next link-up.
+            if occasion is AT_ANSWER:
+                await self._answering(op)
+            verdict = await read_back_after_restart(self.gateway, op, told, occasion)
+            # Taken, or refused ('>@'): the controller answered; lost on a loop still up (and a
+            # controller still answering): the read-back gave up on it. Only a new outage is
+            # worth the next link-up or answer.
             answered = bool(stops) and (stops[-1].sent or bool(stops[-1].frames))
-            if answered or scheduler.state is LinkState.UP:
+            silent = occasion is AT_ANSWER and not self._online(op)
+            if answered or (scheduler.state is LinkState.UP and not silent):
                 return verdict
+
+    def _online(self, op: Operation) -> bool:
+        return self.gateway.state.controller(op.axis.loop, op.axis.body).online is True
+
+    async def _answering(self, op: Operation) -> None:
+        """Until the poller has found ``op``'s controller answering again."""
+        back = asyncio.Event()
+
+        def seen(change: Change) -> None:
+            ours = (change.loop, change.body, change.motor) == (op.axis.loop, op.axis.body, None)
+            if ours and change.values.get("online") is True:
+                back.set()
+
+        unsubscribe = self.gateway.state.changes.subscribe(seen)
+        try:
+            if not self._online(op):
+                await back.wait()
+        finally:
+            unsubscribe()

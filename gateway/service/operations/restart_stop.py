@@ -17,9 +17,9 @@ gateway and is left to run (stop it with ``POST /controllers/{id}/program/stop``
 ``Operations.on_restart_stop``, to the audit log (``audit_entry``).
 
 The same stop ends a jog whose loop went down while it ran (its holder's release could not
-reach it through the dead line), once the loop is up again (``line_stop``): one mechanism for
-"stop the jogs nobody holds"; the ``Occasion`` says which it was, in the audit, the log and the
-operation's verdict.
+reach it through the dead line), once the loop is up again, and a jog whose controller alone
+went silent, once it answers again (``line_stop``): one mechanism for "stop the jogs nobody
+holds"; the ``Occasion`` says which it was, in the audit, the log and the operation's verdict.
 """
 
 from __future__ import annotations
@@ -40,6 +40,7 @@ from gateway.service.operations.types import Operation, frames_of
 from gateway.service.runtime.runtime import Runtime
 
 __all__ = [
+    "AT_ANSWER",
     "AT_LINK_UP",
     "AT_RESTART",
     "HOLD_TO_RUN",
@@ -73,7 +74,9 @@ class Occasion:
 
     def context(self, op: Operation) -> str:
         """How the motion came to be unheld, for the verdict's detail."""
-        return self.while_.format(kind=op.kind, state=op.state.value, loop=op.axis.loop)
+        return self.while_.format(
+            kind=op.kind, state=op.state.value, loop=op.axis.loop, controller=op.axis.controller_id
+        )
 
 
 #: A jog in flight when the gateway process died.
@@ -85,6 +88,13 @@ AT_RESTART = Occasion(
 AT_LINK_UP = Occasion(
     "linkup_stop", "ran while its loop was down", "loop_down",
     "Stopped when the loop came back", "loop {loop} went down while the {kind} ran",
+)  # fmt: skip
+#: A jog whose controller alone stopped answering while it ran (its own wiring on the current
+#: loop, a failing receiver), stopped once it answers again.
+AT_ANSWER = Occasion(
+    "answer_stop", "ran while its controller was silent", "offline",
+    "Stopped when the controller answered again",
+    "controller {controller} stopped answering while the {kind} ran",
 )  # fmt: skip
 
 
