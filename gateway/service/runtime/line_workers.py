@@ -71,10 +71,6 @@ class LineWorkers:
             if own != client.followed:
                 client.follow(own)
 
-    def supervisor_of(self, loop: str) -> WorkerSupervisor:
-        """The supervisor of the worker that runs ``loop``."""
-        return next(s for s in self.supervisors if loop in s.client.proxies)
-
     async def start(self) -> None:
         """Start every worker; returns once each has sent its first snapshot (or died: its
         loops are down with the cause, and it starts again after its back-off)."""

@@ -141,6 +141,8 @@ class Runtime:
     async def close(self, *, drain: float = DRAIN_SECONDS) -> None:
         """Stop polling, let each loop's transaction in flight finish, close the ports."""
         await self.key_switches.stop()
+        if self.followed is not None:
+            self.followed.close()
         if self.workers is not None:
             await self.workers.close(drain=drain)
         else:
