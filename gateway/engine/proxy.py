@@ -186,6 +186,10 @@ class WorkerClient:
         """Let go of the worker's channels: its loops are down with ``cause``."""
         writers, self._writers = self._writers, None
         readers, self._readers = self._readers, []
+        # Said before anything is awaited: the supervisor's word on how the worker ended
+        # (with its retry hint) may come while a reader that saw the channel close is still
+        # here, and must stay the last word, not be overwritten by this one.
+        self._gone(cause, retry_after)
         current = asyncio.current_task()
         for task in readers:
             if task is not current:
@@ -195,7 +199,6 @@ class WorkerClient:
         if writers is not None:
             for writer in writers:
                 writer.close()
-        self._gone(cause, retry_after)
 
     def follow(self, controllers: frozenset[tuple[str, str]]) -> None:
         """Have the worker relay the reply events of ``controllers`` (loop, body) only: the
