@@ -62,7 +62,6 @@ class Runtime:
         transports: Mapping[str, Transport] | None = None,
         time_scale: float = 1.0,
         store: StateStore | None = None,
-        workers: LineWorkers | None = None,
     ) -> None:
         self.config = config
         #: what must outlive the process (operations, idempotency keys, counters); in memory
@@ -79,7 +78,7 @@ class Runtime:
         #: which controllers' replies the workers relay (None: in one process, no channel)
         self.followed: FollowedControllers | None = None
         if transports is None:
-            self.workers = workers or LineWorkers(config, self.topology, time_scale)
+            self.workers = LineWorkers(config, self.topology, time_scale)
             self.followed = FollowedControllers(self.events, self.workers.follow)
             self.state: StateCache = self.workers.mirror
             self.schedulers = dict(self.workers.schedulers)
