@@ -30,6 +30,7 @@ from gateway.api.access_log import log_access
 from gateway.api.asgi_status import call_noting_status
 from gateway.api.exposition import Exposition, Histogram
 from gateway.api.metrics_cell import CellMetrics, render_build_and_process
+from gateway.api.metrics_workers import render_workers
 from gateway.api.security import api_routes
 from gateway.service.runtime.bus_types import (
     BusEvent,
@@ -313,6 +314,7 @@ class Metrics:
         out = Exposition()
         render_build_and_process(out)
         self._render_loops(out)
+        render_workers(out, self.gateway)
         if self.cell is not None:
             self.cell.render(out)
         self._render_ws(out)

@@ -1,9 +1,11 @@
 """``rc233-gateway serve``: the REST/WebSocket API on the loops of a configuration file.
 
 ``serve --config cell.toml`` runs the loops the file describes, once every problem
-``rc233-gateway check-config`` finds in it is fixed; a loop whose device is not there (yet)
-starts down and comes up when it appears. ``serve --simulate`` runs in-process
-simulated loops: without a file one loop (``sim``) with three controllers whose axes are named
+``rc233-gateway check-config`` finds in it is fixed, each in a line worker process (grouped
+by ``[engine] workers``; a worker that dies is started again, its loops down meanwhile); a
+loop whose device is not there (yet) starts down and comes up when it appears.
+``serve --simulate`` runs in-process simulated loops (``simulated_lines``): without a file
+one loop (``sim``) with three controllers whose axes are named
 (gateway/service/simulated.py); with ``--config`` the file's loops, controllers, names, units,
 tokens and audit log, each loop's port replaced by a simulated loop (9600 bps). Either takes
 the simulator's options. A configuration can equally point a loop at ``rc233-gateway sim
@@ -37,31 +39,25 @@ from gateway.cli.check_config import NO_TOKENS, check_report, problems_error
 from gateway.cli.connection_guard import uvicorn_connection_options
 from gateway.cli.logs import configure_logging
 from gateway.cli.notify import notify
+from gateway.cli.simulated_lines import sim_line, simulated_lines
 from gateway.mqtt.commands import DeviceCommands
 from gateway.mqtt.edge_node import EdgeNode
 from gateway.opcua.face import OpcUaFace
-from gateway.protocol.framing import Series
 from gateway.service.config import ConfigError, GatewayConfig
 from gateway.service.runtime.runtime import Runtime
-from gateway.service.runtime.simulated import SIM_LOOP, simulated_config
 from gateway.service.runtime.state_log import StateLog
 from gateway.service.store import StateStore, default_state_dir
 from gateway.sim.cli import (
     add_clock_option,
-    build_loop,
-    default_eeprom_dir,
     host_port,
     parse_bodies,
     positive,
 )
-from gateway.sim.clock import SimClock
 from gateway.sim.control import Controls, serve_control
 from gateway.sim.loop import SimLoop
-from gateway.sim.scene import SceneError, load_scene
-from gateway.sim.serve import SimPort
+from gateway.sim.scene import SceneError
 from gateway.transport.base import Transport
 from gateway.transport.factory import open_transport
-from gateway.transport.pipe import PipeTransport
 
 __all__ = ["add_serve_parser", "open_lines", "sim_line"]
 
@@ -156,54 +152,10 @@ def add_serve_parser(subparsers: Any) -> argparse.ArgumentParser:
     return serve
 
 
-def _simulated(
-    args: argparse.Namespace, config: GatewayConfig | None
-) -> tuple[GatewayConfig, list[SimLoop], dict[str, Transport]]:
-    """The simulated loops: one per loop of ``config`` (its controllers), or ``sim``."""
-    scene = load_scene(args.scene) if args.scene else None
-    eeprom_dir: Path = args.eeprom_dir or default_eeprom_dir()
-    if config is None:
-        config = simulated_config(args.bodies)
-        wanted = [(SIM_LOOP, list(args.bodies), Series.DOLLAR, eeprom_dir)]
-    else:
-        wanted = []
-        for i, loop in enumerate(config.loops):
-            if loop.baud != 9600:
-                raise ConfigError(f"loops[{i}].baud: simulated controllers answer at 9600 bps")
-            marks = {c.series for c in loop.controllers}
-            if len(marks) > 1:
-                raise ConfigError(f"loops[{i}].controllers: simulated loops have one series")
-            bodies = [c.body for c in loop.controllers]
-            # Each loop its own EEPROM files: the same body number on two loops is two units.
-            wanted.append((loop.name, bodies, Series(marks.pop()), eeprom_dir / loop.name))
-    sims: list[SimLoop] = []
-    transports: dict[str, Transport] = {}
-    for name, bodies, series, eeproms in wanted:
-        clock = SimClock(args.time_scale, precise=args.clock == "precise")
-        sim = build_loop(bodies, series=series, scene=scene, eeprom_dir=eeproms, clock=clock)
-        sims.append(sim)
-        transports[name] = sim_line(sim)
-    return config, sims, transports
-
-
 def open_lines(config: GatewayConfig) -> dict[str, Transport]:
     """The transport of every loop of ``config``: its ``port`` at its ``baud`` (not opened
     yet: each loop's scheduler opens it, and opens it again after a loss)."""
     return {loop.name: open_transport(loop.port, loop.baud) for loop in config.loops}
-
-
-def sim_line(sim: SimLoop) -> PipeTransport:
-    """The in-process line to ``sim``: opened at another rate (``POST /loops/{loop}/baud``),
-    it sets the simulated line's rate, the host's UART, so controllers at another rate hear
-    noise as on a real line."""
-
-    def connect() -> SimPort:
-        if sim.baud != line.baud:
-            Controls(sim).baud(line.baud)
-        return SimPort(sim)
-
-    line = PipeTransport(connect)
-    return line
 
 
 def _auth(args: argparse.Namespace, config: GatewayConfig) -> AuthConfig:
@@ -273,13 +225,12 @@ def _configured(args: argparse.Namespace) -> GatewayConfig | None:
 async def serve(args: argparse.Namespace) -> int:
     """Run the API until SIGINT/SIGTERM; the exit code."""
     sims: list[SimLoop] = []
-    transports: dict[str, Transport] = {}
+    # None: every loop in a line worker process, which opens its port itself
+    transports: dict[str, Transport] | None = None
     config = _configured(args)
     if args.simulate:
-        config, sims, transports = _simulated(args, config)
+        config, sims, transports = simulated_lines(args, config)
     assert config is not None
-    if not args.simulate:
-        transports = open_lines(config)
     auth = _auth(args, config)
     state_dir, scratch = _state_dir(config, simulated=args.simulate)
     try:
@@ -310,11 +261,12 @@ async def _serve(
     args: argparse.Namespace,
     config: GatewayConfig,
     sims: list[SimLoop],
-    transports: dict[str, Transport],
+    transports: dict[str, Transport] | None,
     auth: AuthConfig,
     store: StateStore,
 ) -> int:
-    """Run the API on ``transports`` with the opened state ``store`` until a signal."""
+    """Run the API on ``transports`` (None: the loops in line workers) with the opened state
+    ``store`` until a signal."""
     gateway = Runtime(config, transports=transports, time_scale=args.time_scale, store=store)
     StateLog(gateway).start()
     app = create_app(gateway, auth=auth)
@@ -347,6 +299,7 @@ async def _serve(
         f"rc233-gateway serve: dashboard http://{args.host}:{args.port}/ "
         f"API http://{args.host}:{args.port}/api/v1 loops {loops}"
         + (" [simulated]" if sims else "")
+        + (f" line workers {workers_text(gateway)}" if gateway.workers is not None else "")
         + f" state {store.directory}",
         flush=True,
     )
@@ -371,6 +324,12 @@ async def _serve(
         for sim in sims:
             sim.close()
     return 0
+
+
+def workers_text(gateway: Runtime) -> str:
+    """The line workers and their loops, for the start line (``[a, b] [c]``)."""
+    assert gateway.workers is not None
+    return " ".join(f"[{', '.join(s.client.proxies)}]" for s in gateway.workers.supervisors)
 
 
 def event_loop_runner() -> asyncio.Runner:

@@ -9,7 +9,9 @@ channel. Stops go on the stop channel, which the worker reads first.
 When the worker goes away (``detach``, or its channel closes), every request waiting for a
 reply fails with ``LoopDown`` naming the cause (``in_flight``: the commands may have been
 sent), every loop of the worker is down with that cause until a worker attaches again, and
-requests meanwhile fail at once with ``LoopDown`` carrying the retry hint.
+requests meanwhile fail at once with ``LoopDown`` carrying the retry hint. The latches the
+mirror showed for them are held there (``StateMirror.hold``): a worker's death acknowledges
+nothing.
 """
 
 from __future__ import annotations
@@ -19,14 +21,17 @@ import contextlib
 import itertools
 import logging
 import time
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
+from gateway.bus.config import LoopConfig
 from gateway.bus.counters import CountersSnapshot
 from gateway.bus.events import BusEvent, EventBus, LinkDown, LinkUp, TransactionDone
 from gateway.bus.lifecycle import LinkState
 from gateway.bus.requests import LoopDown, Priority, TransactionResult
+from gateway.bus.state_types import ErrorKind
 from gateway.engine.mirror import StateMirror
+from gateway.engine.remote import PollerProxy, RemoteLine, RemoteTrace
 from gateway.engine.wire import Channel, Kind, decode_error, encode, read_message
 from gateway.protocol.models import Command
 from gateway.protocol.program import Program
@@ -39,9 +44,11 @@ log = logging.getLogger("gateway.engine")
 class SchedulerProxy:
     """One loop of a worker, as service/ calls a ``LoopScheduler``."""
 
-    def __init__(self, client: WorkerClient, name: str) -> None:
+    def __init__(self, client: WorkerClient, name: str, config: LoopConfig | None = None) -> None:
         self.client = client
         self.name = name
+        #: the scheduler's configuration in the worker (``time_scale`` among it)
+        self.config = config if config is not None else LoopConfig(name=name)
         self.state = LinkState.CONNECTING
         self.cause = "the line worker is not connected yet"
         self.events: EventBus[BusEvent] = EventBus()
@@ -51,9 +58,31 @@ class SchedulerProxy:
         self.queue_depth = 0
         #: the loop's counters as of its latest transaction (``snapshot()``)
         self.counters = CountersSnapshot()
-        #: what the worker's last open of the line learned of a local adapter (transport/'s
-        #: ``AdapterReport``, named here by no type: the API side imports no transport)
-        self.adapter: object | None = None
+        #: the line's rate and adapter report as the worker last opened it
+        self.line = RemoteLine(self.config.baud or 9600)
+        #: the loop's trace: switched here and in the worker, fed by the worker's records
+        self.trace = RemoteTrace(self._trace_switches, self.config.trace_size)
+
+    @staticmethod
+    def clock() -> float:
+        """The host's clock, the schedulers' (``time.monotonic``: one clock for every process
+        of the host, so the worker's times read the same here)."""
+        return time.monotonic()
+
+    @property
+    def timing(self) -> RemoteLine:
+        """The line's rate as ``timing.baud`` (a scheduler's word for it)."""
+        return self.line
+
+    @property
+    def transport(self) -> RemoteLine:
+        """The adapter report as ``transport.adapter`` (a scheduler's word for it)."""
+        return self.line
+
+    def _trace_switches(
+        self, everything: bool, bodies: tuple[str, ...], hex_mode: bool, clear: bool
+    ) -> None:
+        self.client.tell((Kind.TRACE, self.name, everything, bodies, hex_mode, clear))
 
     async def submit(
         self,
@@ -92,6 +121,7 @@ class SchedulerProxy:
     def reopen_at(self, baud: int) -> None:
         """Reopen the worker's line at ``baud`` (``LoopScheduler.reopen_at``): the link's
         loss and return come back as events."""
+        self.line.baud = baud  # as a scheduler's timing: at once, whatever the line does
         self.client.tell((Kind.REOPEN, self.name, baud))
 
     async def polling(self, on: bool) -> None:
@@ -110,10 +140,25 @@ class SchedulerProxy:
 class WorkerClient:
     """The channels to one worker, and the proxies of its loops."""
 
-    def __init__(self, name: str, loops: Iterable[str], mirror: StateMirror) -> None:
+    def __init__(
+        self,
+        name: str,
+        loops: Iterable[str],
+        mirror: StateMirror,
+        configs: Mapping[str, LoopConfig] | None = None,
+    ) -> None:
         self.name = name
         self.mirror = mirror
-        self.proxies = {loop: SchedulerProxy(self, loop) for loop in loops}
+        configs = configs or {}
+        self.proxies = {loop: SchedulerProxy(self, loop, configs.get(loop)) for loop in loops}
+        #: each loop's poller, switched by requests
+        self.pollers = {
+            loop: PollerProxy(loop, proxy.polling) for loop, proxy in self.proxies.items()
+        }
+        for loop in self.proxies:
+            mirror.route(loop, self._acknowledge)
+        #: the controllers whose reply events the worker relays (None: all)
+        self.followed: frozenset[tuple[str, str]] | None = None
         self._ids = itertools.count(1)
         self._waiting: dict[int, tuple[str, asyncio.Future[Any]]] = {}
         self._writers: tuple[asyncio.StreamWriter, asyncio.StreamWriter] | None = None
@@ -128,7 +173,8 @@ class WorkerClient:
 
     async def attach(self, requests: Channel, stops: Channel) -> None:
         """Take a (new) worker's channels and read them until they close."""
-        await self.detach("a new worker attached")
+        if self._writers is not None:  # else its loops are down with the cause of its end
+            await self.detach("a new worker attached")
         self.synced.clear()
         self._writers = (requests[1], stops[1])
         self._readers = [
@@ -140,6 +186,10 @@ class WorkerClient:
         """Let go of the worker's channels: its loops are down with ``cause``."""
         writers, self._writers = self._writers, None
         readers, self._readers = self._readers, []
+        # Said before anything is awaited: the supervisor's word on how the worker ended
+        # (with its retry hint) may come while a reader that saw the channel close is still
+        # here, and must stay the last word, not be overwritten by this one.
+        self._gone(cause, retry_after)
         current = asyncio.current_task()
         for task in readers:
             if task is not current:
@@ -149,10 +199,23 @@ class WorkerClient:
         if writers is not None:
             for writer in writers:
                 writer.close()
-        self._gone(cause, retry_after)
+
+    def follow(self, controllers: frozenset[tuple[str, str]]) -> None:
+        """Have the worker relay the reply events of ``controllers`` (loop, body) only: the
+        ones an operation watches. A new worker is told again when it attaches."""
+        self.followed = controllers
+        self.tell((Kind.FOLLOW, controllers))
+
+    def _acknowledge(
+        self, loop: str, body: str, motor: int | None, kinds: tuple[ErrorKind, ...] | None
+    ) -> None:
+        # no answer awaited: the mirror cleared its record already, the worker's change
+        # follows; a worker away now has nothing to clear (its successor starts unlatched)
+        self.tell((Kind.ACKNOWLEDGE, loop, body, motor, kinds))
 
     def _gone(self, cause: str, retry_after: float | None) -> None:
         self.mirror.forget(self.name)
+        self.mirror.hold(self.proxies)
         now = time.monotonic()
         for loop in self.proxies:
             # as after a line loss: nothing the dead worker read is current, not even that a
@@ -168,11 +231,11 @@ class WorkerClient:
             news = proxy.state is LinkState.UP or proxy.cause != cause
             proxy.state, proxy.cause, proxy.retry_after = LinkState.DOWN, cause, retry_after
             if news:
-                proxy.events.publish(
-                    LinkDown(
-                        loop=proxy.name, time=time.monotonic(), cause=cause, retry_after=retry_after
-                    )
+                down = LinkDown(
+                    loop=proxy.name, time=time.monotonic(), cause=cause, retry_after=retry_after
                 )
+                self.mirror.relay(down)
+                proxy.events.publish(down)
 
     def tell(self, message: tuple[Any, ...]) -> None:
         """Send ``message`` on the request channel, no answer awaited (none when detached:
@@ -219,7 +282,13 @@ class WorkerClient:
                 proxy.retry_after = event.retry_after
             elif isinstance(event, TransactionDone):
                 proxy.counters = event.counters
+            self.mirror.relay(event)  # the followers first, as the cache of one process does
             proxy.events.publish(event)
+        elif kind == Kind.LINE:
+            line = self.proxies[message[1]].line
+            line.baud, line.adapter = message[2], message[3]
+        elif kind == Kind.TRACED:
+            self.proxies[message[1]].trace.take(message[2])
         elif kind in (Kind.RESULT, Kind.ERROR):
             entry = self._waiting.pop(message[1], None)
             if entry is not None and not entry[1].done():
@@ -229,11 +298,18 @@ class WorkerClient:
                     entry[1].set_exception(decode_error(message[2]))
         elif kind == Kind.SNAPSHOT:
             self.mirror.load(self.name, message[1])
-            for loop, (state, cause, depth, counters, adapter) in message[2].items():
+            for loop, (state, cause, depth, counters, adapter, baud) in message[2].items():
                 proxy = self.proxies[loop]
                 was_up = proxy.state is LinkState.UP
                 proxy.state, proxy.cause = LinkState(state), cause
-                proxy.queue_depth, proxy.counters, proxy.adapter = depth, counters, adapter
+                proxy.queue_depth, proxy.counters = depth, counters
+                proxy.line.adapter, proxy.line.baud = adapter, baud
+                if proxy.trace.on:  # a new worker traces nothing until told
+                    proxy.trace.resend()
                 if proxy.state is LinkState.UP and not was_up:
-                    proxy.events.publish(LinkUp(loop=loop, time=time.monotonic()))
+                    up = LinkUp(loop=loop, time=time.monotonic())
+                    self.mirror.relay(up)
+                    proxy.events.publish(up)
+            if self.followed is not None:  # nor does it know whose replies to skip
+                self.tell((Kind.FOLLOW, self.followed))
             self.synced.set()

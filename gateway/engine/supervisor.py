@@ -72,6 +72,12 @@ class WorkerSupervisor:
         """The worker's name (its client's)."""
         return self.client.name
 
+    @property
+    def up(self) -> bool:
+        """True while the worker's process runs and its channels are attached."""
+        process = self.process
+        return process is not None and process.returncode is None and self.client.attached
+
     async def start(self) -> None:
         """Start the worker and watch it; returns once its first snapshot is in, or it died
         before (its loops are down with the cause, and it is started again after the

@@ -24,8 +24,8 @@ from typing import Any
 
 from gateway.bus.requests import BusError, DeadlineExpired, LoopDown, TransactionError
 from gateway.errors import GatewayError
-from gateway.protocol.models import Command
-from gateway.protocol.registry import parse
+from gateway.protocol.models import Command, model_name
+from gateway.protocol.registry import REGISTRY, parse
 
 __all__ = [
     "Channel",
@@ -98,6 +98,15 @@ def model_of(model: str, fields: dict[str, Any]) -> Command:
     names this function): the fields are those of a model that was valid when sent."""
     if model not in _MODELS:
         _MODELS.update(_command_models())
+    if model not in _MODELS:
+        # the models are made when a form is first used: a worker that has parsed no program
+        # yet has none of the program statements' (``/J``, ``/D``), the API process had them
+        for entry in REGISTRY.entries:
+            if model_name(entry.key) == model:
+                _MODELS[model] = entry.model
+                break
+        else:
+            raise ValueError(f"{model} is no command form of the manual")
     return _MODELS[model].model_construct(**fields)
 
 
@@ -123,7 +132,12 @@ class Kind(StrEnum):
     REOPEN = "reopen"  # client: (REOPEN, loop, baud) the line at another rate, no answer
     POLLING = "polling"  # client: (POLLING, rid, loop, on) start or stop the loop's poller
     RESYNC = "resync"  # client: (RESYNC,) send a snapshot again (a change was missed)
-    SNAPSHOT = "snapshot"  # worker: (SNAPSHOT, Snapshot, {loop: (LinkState, cause)})
+    ACKNOWLEDGE = "ack"  # client: (ACKNOWLEDGE, loop, body, motor, kinds) clear latches
+    TRACE = "trace"  # client: (TRACE, loop, all, bodies, hex_mode, clear) the trace's switches
+    FOLLOW = "follow"  # client: (FOLLOW, {(loop, body), ...}) whose reply events to relay
+    SNAPSHOT = "snapshot"  # worker: (SNAPSHOT, Snapshot, {loop: (LinkState, cause, ...)})
+    TRACED = "traced"  # worker: (TRACED, loop, TraceRecord) one record of a traced loop
+    LINE = "line"  # worker: (LINE, loop, baud, adapter report) the line as last opened
     CHANGE = "change"  # worker: (CHANGE, Change)
     EVENT = "event"  # worker: (EVENT, loop, BusEvent, LinkState, cause)
     RESULT = "result"  # worker: (RESULT, rid, TransactionResult)

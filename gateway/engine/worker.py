@@ -9,6 +9,15 @@ stop reaches the scheduler as soon as its bytes are in, whatever the request cha
 
 ``serve`` returns when the request channel closes (the client went away); the loops keep
 running, and a client that connects again gets a fresh snapshot.
+
+Reply events (``ReplyObserved``: one or more a poll) are relayed for every controller until
+the client says which it follows (``FOLLOW``: those an operation watches; the state reaches
+the client as changes), so that an idle poll crosses the channel as one ``TransactionDone``.
+
+The rest of what the API process reads of a scheduler follows it too: the line's rate and
+adapter report with every link event (``LINE``, before the event), the trace's records while
+the client has it switched on (``TRACED``), and the client's acknowledges of latched errors
+and trace switches come as requests without an answer.
 """
 
 from __future__ import annotations
@@ -19,11 +28,12 @@ import logging
 from collections.abc import Callable, Mapping
 from typing import Any
 
-from gateway.bus.events import BusEvent
+from gateway.bus.events import BusEvent, LinkDown, LinkUp, ReplyObserved
 from gateway.bus.poller import Poller
 from gateway.bus.requests import TransactionError
 from gateway.bus.scheduler import LoopScheduler
 from gateway.bus.state import StateCache
+from gateway.bus.trace import FrameDirection, TraceRecord
 from gateway.engine.wire import Channel, Kind, encode, encode_error, read_message
 
 __all__ = ["LineWorker"]
@@ -44,14 +54,13 @@ class LineWorker:
         self.state = state
         self.pollers = dict(pollers or {})
         self._tasks: set[asyncio.Task[None]] = set()
+        #: the controllers whose reply events the client reads (None: every controller's)
+        self.followed: frozenset[tuple[str, str]] | None = None
 
     def links(self) -> dict[str, tuple[Any, ...]]:
         """Every loop's link state, cause, queue depth, counters and adapter report, as the
         snapshot carries them."""
-        return {
-            name: (s.state.value, s.cause, s.queue_depth, s.snapshot(), s.transport.adapter)
-            for name, s in self.schedulers.items()
-        }
+        return {name: _link(s) for name, s in self.schedulers.items()}
 
     async def serve(self, requests: Channel, stops: Channel) -> None:
         """Serve one client until it closes the request channel."""
@@ -62,12 +71,14 @@ class LineWorker:
             if not writer.is_closing():
                 writer.write(encode(message))
 
+        self.followed = None  # a new client reads every reply until it says otherwise
         send((Kind.SNAPSHOT, self.state.snapshot(), self.links()))
         unsubscribe: list[Callable[[], None]] = [
             self.state.changes.subscribe(lambda change: send((Kind.CHANGE, change)))
         ]
         for name, scheduler in self.schedulers.items():
             unsubscribe.append(scheduler.events.subscribe(self._relay(name, scheduler, send)))
+            unsubscribe.append(_relay_trace(name, scheduler, send))
         stop_task = asyncio.create_task(self._read_stops(stop_reader, stop_writer))
         try:
             while (message := await read_message(reader)) is not None:
@@ -77,6 +88,14 @@ class LineWorker:
                     self._spawn(self._submit(message, send))
                 elif message[0] == Kind.REOPEN:
                     self._scheduler(message[1]).reopen_at(message[2])
+                elif message[0] == Kind.ACKNOWLEDGE:
+                    _, loop, body, motor, kinds = message
+                    now = self._scheduler(loop).clock()
+                    self.state.acknowledge(loop, body, now, motor=motor, kinds=kinds)
+                elif message[0] == Kind.FOLLOW:
+                    self.followed = frozenset(message[1])
+                elif message[0] == Kind.TRACE:
+                    _trace_switches(self._scheduler(message[1]), *message[2:])
                 else:
                     log.error("line worker: unknown request %r", message[0])
         finally:
@@ -94,6 +113,15 @@ class LineWorker:
         self, name: str, scheduler: LoopScheduler, send: Callable[[tuple[Any, ...]], None]
     ) -> Callable[[BusEvent], None]:
         def relay(event: BusEvent) -> None:
+            followed = self.followed
+            if (
+                followed is not None
+                and type(event) is ReplyObserved
+                and (event.loop, event.body) not in followed
+            ):
+                return  # what it taught crosses as changes; nobody there reads the reply
+            if isinstance(event, LinkUp | LinkDown):  # the line as (re)opened, before its news
+                send((Kind.LINE, name, scheduler.timing.baud, scheduler.transport.adapter))
             # the link as of the event: the client's proxy reads it without asking
             send((Kind.EVENT, name, event, scheduler.state.value, scheduler.cause,
                   scheduler.queue_depth))  # fmt: skip
@@ -166,3 +194,47 @@ class LineWorker:
             send((Kind.ERROR, rid, encode_error(exc)))
         else:
             send((Kind.RESULT, rid, result))
+
+
+def _link(s: LoopScheduler) -> tuple[Any, ...]:
+    return (s.state.value, s.cause, s.queue_depth, s.snapshot(), s.transport.adapter,
+            s.timing.baud)  # fmt: skip
+
+
+def _trace_switches(
+    scheduler: LoopScheduler, everything: bool, bodies: tuple[str, ...], hex_mode: bool, clear: bool
+) -> None:
+    trace = scheduler.trace
+    trace.enable(everything, hex_mode=hex_mode)
+    for body in set(trace.bodies) - set(bodies):
+        trace.enable_body(body, False)
+    for body in bodies:
+        trace.enable_body(body, True)
+    if clear:
+        trace.clear()
+
+
+def _relay_trace(
+    name: str, scheduler: LoopScheduler, send: Callable[[tuple[Any, ...]], None]
+) -> Callable[[], None]:
+    """Send each record the loop's trace keeps to the client, until the returned undo.
+
+    The line's parts hold the trace object itself, so its ``add`` is wrapped on the instance;
+    the exchange path asks ``trace.on`` before it builds a record, so an untraced loop costs
+    nothing here."""
+    trace = scheduler.trace
+    original = trace.add
+
+    def add(
+        time: float, direction: FrameDirection, body: str | None, data: bytes, note: str = ""
+    ) -> None:
+        original(time, direction, body, data, note)
+        if trace.wants(body):
+            send((Kind.TRACED, name, TraceRecord(time, direction, body, bytes(data), note)))
+
+    trace.add = add  # type: ignore[method-assign]
+
+    def undo() -> None:
+        del trace.add  # the class's own again
+
+    return undo

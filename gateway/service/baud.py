@@ -14,7 +14,7 @@ controller on it and the host share one rate.
 2. holds the loop: the poller and the key-switch reads pause, other requests to the loop are
    refused 409 (``ControlStates.hold``) until the change ends; stops still go out;
 3. sends ``ES{bp}`` to each controller (at the old rate), then reopens the port at the new rate
-   (``LoopScheduler.reopen_at``) and reads each controller's status there;
+   (``LineScheduler.reopen_at``) and reads each controller's status there;
 4. when one does not answer at the new rate, rolls back what it can: ``ES{old}`` to every
    controller that answered at the new rate, the port back at the old rate, each read again;
    a controller that answers at neither rate is reported ``lost`` with the manual's recovery
@@ -35,7 +35,8 @@ from pydantic import BaseModel, Field
 
 from gateway.bus.events import BusEvent, LinkUp
 from gateway.bus.requests import BusError, Outcome
-from gateway.bus.scheduler import LinkState, LoopScheduler
+from gateway.bus.scheduler import LinkState
+from gateway.engine.surface import LineScheduler
 from gateway.errors import ConflictError, DeviceError, InvalidInputError
 from gateway.protocol import commands as cmd
 from gateway.protocol.framing import BAUD_RATES
@@ -123,7 +124,7 @@ class BaudChanger:
 
     # ------------------------------------------------------------------ steps
 
-    def _check(self, controllers: tuple[ControllerRef, ...], scheduler: LoopScheduler) -> None:
+    def _check(self, controllers: tuple[ControllerRef, ...], scheduler: LineScheduler) -> None:
         if scheduler.state is not LinkState.UP:
             raise scheduler.down_error()
         state = self.gateway.state
@@ -174,7 +175,7 @@ class BaudChanger:
     async def _move(
         self,
         controllers: tuple[ControllerRef, ...],
-        scheduler: LoopScheduler,
+        scheduler: LineScheduler,
         old: int,
         baud: int,
     ) -> BaudChange:
@@ -226,7 +227,7 @@ class BaudChanger:
         )  # fmt: skip
 
     async def _send_es(
-        self, scheduler: LoopScheduler, ref: ControllerRef, baud: int, frames: dict[str, list[str]]
+        self, scheduler: LineScheduler, ref: ControllerRef, baud: int, frames: dict[str, list[str]]
     ) -> None:
         command = cmd.set_baud_rate(BAUD_CODES[baud])
         frames[ref.id].append(f"{ref.series.value}{ref.body}{command.wire()}")
@@ -235,7 +236,7 @@ class BaudChanger:
             if result.outcome is Outcome.NOT_DONE and result.results:
                 frames[ref.id][-1] += f" ({result.results[-1].kind.value})"
 
-    async def _reopen(self, scheduler: LoopScheduler, baud: int) -> None:
+    async def _reopen(self, scheduler: LineScheduler, baud: int) -> None:
         """Reopen the port at ``baud`` and wait until the loop is up again (some controller
         answered a probe there), or ``REOPEN_TIMEOUT``: then nobody answers at that rate."""
         up = asyncio.Event()
@@ -252,7 +253,7 @@ class BaudChanger:
         finally:
             unsubscribe()
 
-    async def _answers(self, scheduler: LoopScheduler, ref: ControllerRef) -> bool:
+    async def _answers(self, scheduler: LineScheduler, ref: ControllerRef) -> bool:
         """Whether ``ref`` answers its status query (``""``) at the port's rate now."""
         if scheduler.state is not LinkState.UP:
             return False

@@ -30,6 +30,7 @@ from gateway.bus.poll_plan import PollConfig
 from gateway.protocol.framing import BAUD_RATES, BODY_NUMBERS
 from gateway.service.config_base import NAME_PATTERN, ConfigError, Name, Strict
 from gateway.service.config_bounds import UnreadableConfig, listed, read_toml
+from gateway.service.config_engine import EngineSettings, check_groups
 from gateway.service.config_faces import MqttSettings, OpcUaSettings
 from gateway.service.roles import Role
 
@@ -52,6 +53,7 @@ __all__ = [
     "load_config",
     "schema_problems",
 ]
+
 
 class AxisSettings(Strict):
     """One motor of a controller as users see it."""
@@ -245,6 +247,14 @@ class GatewayConfig(BaseSettings):
     connections: ConnectionSettings = ConnectionSettings()
     mqtt: MqttSettings | None = None
     opcua: OpcUaSettings | None = None
+    #: which loops share a line worker process (``config_engine``)
+    engine: EngineSettings = EngineSettings()
+
+    @model_validator(mode="after")
+    def _worker_groups(self) -> Self:
+        if self.engine.workers is not None:
+            check_groups(self.engine.workers, [loop.name for loop in self.loops])
+        return self
 
     @model_validator(mode="after")
     def _names_unique(self) -> Self:

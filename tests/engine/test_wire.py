@@ -4,6 +4,8 @@ statements too, which their text alone does not name), read-only records, the bu
 from __future__ import annotations
 
 import pickle
+import subprocess
+import sys
 from types import MappingProxyType
 from typing import Any
 
@@ -48,3 +50,23 @@ def test_the_bus_errors_keep_their_class_message_and_fields() -> None:
     assert str(decode_error(encode_error(late))) == str(late)
     other = decode_error(encode_error(KeyError("x")))
     assert "KeyError" in str(other)
+
+
+def test_a_program_reaches_a_process_that_never_parsed_one() -> None:
+    # The statements' models are made on first use: a fresh worker has none of them yet.
+    program = parse_program("/D01B/J-1/END")
+    frame = encode((Kind.UPLOAD, program))
+    received = subprocess.run(
+        [sys.executable, "-c", _RECEIVER], input=frame[4:], capture_output=True, check=False
+    )
+    assert received.returncode == 0, received.stderr.decode()
+    assert received.stdout.decode().split() == [s.command.wire() for s in program.statements]
+
+
+#: a new interpreter that decodes one message from stdin and prints its program's statements
+_RECEIVER = """
+import pickle, sys
+import gateway.engine.wire
+_, program = pickle.loads(sys.stdin.buffer.read())
+print(" ".join(s.command.wire() for s in program.statements))
+"""

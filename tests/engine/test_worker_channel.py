@@ -181,3 +181,24 @@ async def test_a_reopen_at_another_rate_comes_back_as_the_link_events(
     await asyncio.wait_for(seen.wait(), 5.0)
     assert "4800" in downs[0].cause
     assert bus.scheduler.timing.baud == 4800
+
+
+async def test_the_supervisors_word_on_a_death_is_the_last_whatever_the_readers_do(
+    make_bus: MakeBus, attach: Attach
+) -> None:
+    # The channel's reader lets go first ("went away"), the supervisor says how the worker
+    # ended while that reader is still cancelling the other: requests must get the latter.
+    bus = await make_bus("1")
+    linked = await attach(bus)
+    proxy = linked.client.proxies[bus.scheduler.name]
+    reader = asyncio.create_task(linked.client.detach("line worker w0 went away"))
+    supervisor = asyncio.create_task(
+        linked.client.detach("line worker w0 was killed by SIGKILL", retry_after=3.0)
+    )
+    await asyncio.gather(reader, supervisor)
+    assert proxy.cause == "line worker w0 was killed by SIGKILL" and proxy.retry_after == 3.0
+    with pytest.raises(LoopDown) as refused:
+        await proxy.submit("1", parse(""))
+    assert refused.value.retry_after == 3.0
+    if linked.served is not None:
+        await asyncio.wait_for(linked.served, 5.0)

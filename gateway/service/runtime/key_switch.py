@@ -19,7 +19,8 @@ import contextlib
 import logging
 
 from gateway.bus.requests import BusError, Priority
-from gateway.bus.scheduler import LinkState, LoopScheduler
+from gateway.bus.scheduler import LinkState
+from gateway.engine.surface import LineScheduler
 from gateway.protocol import commands as cmd
 from gateway.protocol.reply_values import PortByte
 from gateway.service.control import ControlStates, local_input_of
@@ -36,7 +37,7 @@ class KeySwitchReader:
     """One task per loop that has controllers with a key switch."""
 
     def __init__(
-        self, topology: Topology, control: ControlStates, schedulers: dict[str, LoopScheduler]
+        self, topology: Topology, control: ControlStates, schedulers: dict[str, LineScheduler]
     ) -> None:
         self.topology, self.control, self.schedulers = topology, control, schedulers
         self._tasks: list[asyncio.Task[None]] = []

@@ -1,15 +1,18 @@
 """The running gateway: one scheduler and poller per configured loop, one state cache for all.
 
-``Runtime(config, transports=...)`` builds nothing that touches a port; ``await start()``
-opens every loop (one attempt each; a loop that cannot open now keeps trying in the
-background, and requests to it fail with ``LoopDown`` meanwhile) and starts polling;
-``await close()`` stops accepting, lets the transaction in flight on each loop finish,
-closes the ports and then the state store (``store``: the state directory's database, opened
-by the owner of the process; in memory when none is given).
+The loops run in line worker processes (``Runtime(config)``: ``LineWorkers``, the workers
+grouped by ``[engine] workers``): ``schedulers`` are the workers' proxies, ``state`` the
+mirror their changes feed, ``pollers`` switch the workers' pollers. ``Runtime(config,
+transports=...)`` runs them in this process on the transports given, one per loop: the seam
+the tests (and ``serve --simulate``'s in-process simulator) put a line behind; service/ and
+the faces read either form through the same surface (``gateway.engine.surface``).
 
-The transports come from whoever owns the process, one per loop (``transports``): the command
-line opens the configured ports (``gateway.cli.serve.open_lines``) or puts the in-process
-simulator behind a loop; this layer never opens a port of its own choosing.
+Building a ``Runtime`` touches no port and starts no process; ``await start()`` starts the
+workers (or opens every loop: one attempt each; a loop that cannot open now keeps trying in
+the background, and requests to it fail with ``LoopDown`` meanwhile) and starts polling;
+``await close()`` stops accepting, lets the transaction in flight on each loop finish,
+closes the ports (the workers exit) and then the state store (``store``: the state
+directory's database, opened by the owner of the process; in memory when none is given).
 """
 
 from __future__ import annotations
@@ -20,23 +23,24 @@ import time
 from collections.abc import Mapping
 from types import MappingProxyType
 
-from gateway.bus.config import LoopConfig
 from gateway.bus.counters import CountersSnapshot
 from gateway.bus.events import BusEvent, LinkDown, LinkUp, UnsolicitedMessage
-from gateway.bus.poll_plan import PollConfig
 from gateway.bus.poller import Poller, attach
 from gateway.bus.scheduler import LinkState, LoopScheduler
 from gateway.bus.state import StateCache
+from gateway.engine.surface import LinePoller, LineScheduler
 from gateway.protocol.commands import position
-from gateway.protocol.framing import Series
 from gateway.protocol.reply_parser import UnsolicitedKind
-from gateway.service.config import GatewayConfig, LoopSettings
+from gateway.service.config import GatewayConfig
 from gateway.service.control import ControlStates
 from gateway.service.events import EventKind, ServiceEvent, ServiceEvents
+from gateway.service.runtime.followed import FollowedControllers
 from gateway.service.runtime.key_switch import KeySwitchReader
+from gateway.service.runtime.line_workers import LineWorkers
+from gateway.service.runtime.loop_configs import loop_config, poll_config
 from gateway.service.runtime.origin_watch import OriginWatch
 from gateway.service.store.database import StateStore
-from gateway.service.topology import LoopRef, Topology
+from gateway.service.topology import Topology
 from gateway.transport.base import Transport
 
 __all__ = ["Runtime", "loop_config", "poll_config"]
@@ -47,25 +51,6 @@ log = logging.getLogger("gateway.service")
 DRAIN_SECONDS = 5.0
 
 
-def loop_config(settings: LoopSettings, ref: LoopRef, time_scale: float) -> LoopConfig:
-    """The scheduler's configuration of one loop."""
-    return LoopConfig(
-        name=settings.name,
-        baud=settings.baud,
-        time_scale=time_scale,
-        **settings.timeouts.model_dump(),  # TimeoutSettings' fields are LoopConfig's
-        sum_at_connect=settings.sum_at_connect,
-        series=MappingProxyType(
-            {c.body: c.series for c in ref.controllers if c.series is not Series.DOLLAR}
-        ),
-    )
-
-
-def poll_config(settings: LoopSettings) -> PollConfig:
-    """The poller's periods of one loop."""
-    return PollConfig(**settings.poll.model_dump())  # PollSettings' fields are PollConfig's
-
-
 class Runtime:
     """The running gateway: every loop of a configuration, its state cache, service events,
     control states and key switch reader (what the faces are built on)."""
@@ -74,7 +59,7 @@ class Runtime:
         self,
         config: GatewayConfig,
         *,
-        transports: Mapping[str, Transport],
+        transports: Mapping[str, Transport] | None = None,
         time_scale: float = 1.0,
         store: StateStore | None = None,
     ) -> None:
@@ -83,24 +68,25 @@ class Runtime:
         #: unless the owner of the process opened the state directory's
         self.store = store if store is not None else StateStore.memory()
         self.topology = Topology(config)
-        self.state = StateCache()
         self.events = ServiceEvents()
         self.time_scale = time_scale
-        self.schedulers: dict[str, LoopScheduler] = {}
-        self.pollers: dict[str, Poller] = {}
         self.started = time.time()
-        transports = dict(transports)
-        missing = [ref.name for ref in self.topology.loops() if ref.name not in transports]
-        if missing:
-            raise ValueError(f"no transport for the loops {missing}")
-        for ref in self.topology.loops():
-            settings = ref.settings
-            transport = transports.pop(ref.name)
-            scheduler = LoopScheduler(transport, loop_config(settings, ref, time_scale))
-            self.schedulers[ref.name] = scheduler
-            self.pollers[ref.name] = attach(
-                scheduler, self.state, ref.bodies, poll_config(settings)
-            )
+        #: the line workers (None: the loops run in this process, on ``transports``)
+        self.workers: LineWorkers | None = None
+        self.schedulers: dict[str, LineScheduler]
+        self.pollers: dict[str, LinePoller]
+        #: which controllers' replies the workers relay (None: in one process, no channel)
+        self.followed: FollowedControllers | None = None
+        if transports is None:
+            self.workers = LineWorkers(config, self.topology, time_scale)
+            self.followed = FollowedControllers(self.events, self.workers.follow)
+            self.state: StateCache = self.workers.mirror
+            self.schedulers = dict(self.workers.schedulers)
+            self.pollers = dict(self.workers.pollers)
+        else:
+            self.state = StateCache()
+            self.schedulers, self.pollers = self._in_process(transports, time_scale)
+        for scheduler in self.schedulers.values():
             scheduler.events.subscribe(self._relay)
         #: local/remote control of every controller, and the key switches' reader
         self.control = ControlStates(self.topology, self.events)
@@ -112,17 +98,41 @@ class Runtime:
             read_position=lambda a: self.scheduler(a.loop).submit(a.body, position(a.motor)),
         )
         self.key_switches = KeySwitchReader(self.topology, self.control, self.schedulers)
-        if transports:
-            raise ValueError(f"transports for loops not configured: {sorted(transports)}")
+
+    def _in_process(
+        self, transports: Mapping[str, Transport], time_scale: float
+    ) -> tuple[dict[str, LineScheduler], dict[str, LinePoller]]:
+        """Every loop's scheduler and poller in this process, on ``transports``."""
+        lines = dict(transports)
+        missing = [ref.name for ref in self.topology.loops() if ref.name not in lines]
+        if missing:
+            raise ValueError(f"no transport for the loops {missing}")
+        self._local: dict[str, LoopScheduler] = {}
+        self._local_pollers: dict[str, Poller] = {}
+        for ref in self.topology.loops():
+            settings = ref.settings
+            scheduler = LoopScheduler(lines.pop(ref.name), loop_config(settings, ref, time_scale))
+            self._local[ref.name] = scheduler
+            self._local_pollers[ref.name] = attach(
+                scheduler, self.state, ref.bodies, poll_config(settings)
+            )
+        if lines:
+            raise ValueError(f"transports for loops not configured: {sorted(lines)}")
+        return dict(self._local), dict(self._local_pollers)
 
     # ------------------------------------------------------------------ life
 
     async def start(self) -> None:
-        """Open every loop (one attempt each) and start polling."""
-        await asyncio.gather(*(s.start() for s in self.schedulers.values()))
-        for name, poller in self.pollers.items():
-            poller.start()
-            scheduler = self.schedulers[name]
+        """Start the workers (or open every loop: one attempt each) and start polling."""
+        if self.workers is not None:
+            await self.workers.start()  # each worker polls from its start
+            assert self.followed is not None
+            self.followed.start()
+        else:
+            await asyncio.gather(*(s.start() for s in self._local.values()))
+            for poller in self._local_pollers.values():
+                poller.start()
+        for name, scheduler in self.schedulers.items():
             if scheduler.state is not LinkState.UP:
                 log.warning("loop %s is not up yet: %s", name, scheduler.cause)
         self.key_switches.start()
@@ -130,13 +140,18 @@ class Runtime:
     async def close(self, *, drain: float = DRAIN_SECONDS) -> None:
         """Stop polling, let each loop's transaction in flight finish, close the ports."""
         await self.key_switches.stop()
-        await asyncio.gather(*(p.stop() for p in self.pollers.values()))
-        await asyncio.gather(*(s.close(drain=drain) for s in self.schedulers.values()))
+        if self.followed is not None:
+            self.followed.close()
+        if self.workers is not None:
+            await self.workers.close(drain=drain)
+        else:
+            await asyncio.gather(*(p.stop() for p in self._local_pollers.values()))
+            await asyncio.gather(*(s.close(drain=drain) for s in self._local.values()))
         await self.store.close()  # last: the ends of the operations drained above are written
 
     # ------------------------------------------------------------------ reading
 
-    def scheduler(self, loop: str) -> LoopScheduler:
+    def scheduler(self, loop: str) -> LineScheduler:
         """The scheduler of ``loop`` (``NotFoundError`` for an unknown name)."""
         return self.schedulers[self.topology.loop(loop).name]
 
