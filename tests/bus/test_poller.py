@@ -30,6 +30,9 @@ from gateway.transport.pipe import PipeTransport
 from tests.state_waits import until_state
 
 LOOP = "L"
+#: A gap between a moving controller's status reads this long means one was skipped (two
+#: periods); shorter ones are the host's (the real-time tests run beside other work).
+SKIPPED = 2 * PollConfig().moving_period
 ALL_BODIES = "0123456789ABCDE"  # 15 controllers: the most one '$' loop holds (§3-III)
 
 
@@ -286,7 +289,7 @@ async def test_a_watched_axis_is_read_back_to_back_with_its_status_at_5_hz(
     assert len(positions) >= 0.65 * len(frames), (len(positions), len(frames))
     # The status at 5 Hz and more, evenly: the end of the move and errors are seen in time.
     gaps = [b - a for a, b in pairwise(status)]
-    assert len(status) >= 2 * 5 and max(gaps) <= 0.25, (len(status), gaps)
+    assert len(status) >= 2 * 5 and max(gaps) < SKIPPED, (len(status), gaps)
     # The idle controllers at their own period (1 s), not at the moving one's.
     for body in "23":
         idle = [f for f in r.frames(f"${body}\r".encode(), since=start) if f.time < end]
@@ -339,7 +342,7 @@ async def test_two_watched_axes_share_the_positions_and_keep_their_status_rate(
         assert len(reads) >= 2 * 12, (body, len(reads))
         status = [f.time for f in r.frames(f"${body}\r".encode(), since=start) if f.time < end]
         gaps = [b - a for a, b in pairwise(status)]
-        assert len(status) >= 2 * 5 and max(gaps) <= 0.25, (body, len(status), gaps)
+        assert len(status) >= 2 * 5 and max(gaps) < SKIPPED, (body, len(status), gaps)
     idle = [f for f in r.frames(b"$3\r", since=start) if f.time < end]
     assert 1 <= len(idle) <= 3, len(idle)
     await r.until(lambda: not any(r.state.axis(LOOP, b, 1).moving for b in "12"))
