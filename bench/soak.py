@@ -245,12 +245,17 @@ def main() -> None:
     parser.add_argument("--heap-out", type=Path, default=Path("soak-heap.txt"))
     parser.add_argument("--python", default=sys.executable, help="the gateway's Python")
     parser.add_argument("--src", type=Path, help="run the gateway from this source tree")
+    parser.add_argument("--logs", type=Path, help="keep the processes' logs in this directory")
     args = parser.parse_args()
     if args.minutes < 1 or not 0 <= args.warmup < args.minutes:
         parser.error("--minutes must be >= 1 and --warmup within 0 and --minutes - 1")
     signal.signal(signal.SIGTERM, signal.default_int_handler)  # the processes are closed
     with tempfile.TemporaryDirectory(prefix="soak-") as tmp:
-        bench = Bench(args.src, args.python, Path(tmp))
+        work = Path(tmp)
+        if args.logs is not None:
+            args.logs.mkdir(parents=True, exist_ok=True)
+            work = args.logs
+        bench = Bench(args.src, args.python, work)
         try:
             summary = asyncio.run(soak(args, bench))
         finally:
