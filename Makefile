@@ -17,7 +17,7 @@ NODE_STAMP := $(NODE_DIR)/node_modules/.installed
 OPCUA_CLIENT_DIR   := tools/opcua-client
 OPCUA_CLIENT_STAMP := $(OPCUA_CLIENT_DIR)/node_modules/.installed
 
-.PHONY: run test lint typecheck layers unit contract bench clean system-tools
+.PHONY: run test lint typecheck layers unit contract bench soak clean system-tools
 
 $(RUNTIME): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -91,6 +91,13 @@ bench: $(STAMP) system-tools
 	$(BIN)/python bench/exchange_profile.py --mode idle --seconds 2
 	$(BIN)/python bench/api.py --quick
 	$(BIN)/python bench/dashboard.py --seconds 3
+
+# The gateway's memory under the traffic of a cell, from outside (bench/soak.py; not part of
+# `make test`): the target run is 2 hours, `make soak SOAK_MINUTES=120 SOAK_WARMUP=30`.
+SOAK_MINUTES ?= 3
+SOAK_WARMUP  ?= 1
+soak: $(STAMP)
+	$(BIN)/python bench/soak.py --minutes $(SOAK_MINUTES) --warmup $(SOAK_WARMUP)
 
 # The static checks and the contract tests are CPU-bound and short; the suite mostly waits on
 # simulated lines: side by side they take the time of the suite alone on two cores. The
