@@ -197,9 +197,15 @@ async def soak(args: argparse.Namespace, bench: Bench) -> dict[str, Any]:
             if task.done() and task.exception() is not None:
                 raise SystemExit(f"a client failed: {task.exception()!r}")
         times, load.get_ms = load.get_ms, []
-        row = {"minute": minute, **process_figures(pid), "tasks": await asyncio_tasks(http_port),
-               "get_p50_ms": p(times, 50), "get_p99_ms": p(times, 99),
-               "answers": dict(sorted(load.statuses.items())), "ws_messages": load.ws_messages}  # fmt: skip
+        row = {
+            "minute": minute,
+            **process_figures(pid),
+            "tasks": await asyncio_tasks(http_port),
+            "get_p50_ms": p(times, 50),
+            "get_p99_ms": p(times, 99),
+            "answers": dict(sorted(load.statuses.items())),
+            "ws_messages": load.ws_messages,
+        }
         minutes.append(row)
         print(json.dumps(row), flush=True)
         if args.tracemalloc and minute % args.tracemalloc == 0:
@@ -260,8 +266,11 @@ def main() -> None:
             summary = asyncio.run(soak(args, bench))
         finally:
             bench.close()
-    targets = {"rss_slope_mb_an_hour_after_warmup": "< 5", "get_p99_ms_last_minute":
-               "<= first minute", "after_clients_left": "fds and tasks back to before_clients"}  # fmt: skip
+    targets = {
+        "rss_slope_mb_an_hour_after_warmup": "< 5",
+        "get_p99_ms_last_minute": "<= first minute",
+        "after_clients_left": "fds and tasks back to before_clients",
+    }
     print(json.dumps({"summary": summary, "targets": targets}, indent=2), flush=True)
 
 

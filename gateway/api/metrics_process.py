@@ -126,12 +126,12 @@ def process_exposition(state: Any = None) -> str:
 
 def _kept(out: Exposition, state: Any) -> None:
     kept: dict[str, tuple[int, int]] = {}
-    audit = getattr(state, "audit", None)
-    if isinstance(getattr(audit, "kept", None), tuple):
-        kept["audit"] = audit.kept
-    feed = getattr(state, "feed", None)
-    if isinstance(getattr(feed, "replay_kept", None), tuple):
-        kept["feed_replay"] = feed.replay_kept
+    audit_kept = getattr(getattr(state, "audit", None), "kept", None)
+    if isinstance(audit_kept, tuple):
+        kept["audit"] = audit_kept
+    replay_kept = getattr(getattr(state, "feed", None), "replay_kept", None)
+    if isinstance(replay_kept, tuple):
+        kept["feed_replay"] = replay_kept
     if not kept:
         return
     out.family("rc233_memory_kept_items", "gauge", "Items a bounded structure keeps in memory.")

@@ -5,8 +5,8 @@ change into a message with the feed's own sequence number (``seq``, one counter 
 everything, so a client needs one number to resume) and ``time``: the wall clock, seconds
 since the epoch (float), when the feed published it. Every message is encoded to JSON once,
 however many clients get it, and kept in a bounded replay ring (``ws.replay`` messages and at most
-``REPLAY_BYTES`` of their text): the gateway's one replay; a client resumes from the number it last saw, or gets a snapshot when
-the ring lost some.
+``REPLAY_BYTES`` of their text): the gateway's one replay; a client resumes from the number it
+last saw, or gets a snapshot when the ring lost some.
 
 Topics: ``axis:<id>`` (``loop.body.motor``), ``controller:<id>`` (``loop.body``),
 ``loop:<name>``, ``axis:*``, ``controller:*``, ``loop:*``, ``events`` (every event) and

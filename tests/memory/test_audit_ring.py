@@ -83,8 +83,8 @@ async def test_a_page_never_reaches_past_what_rotation_kept(tmp_path: Path):
     path = tmp_path / "audit.jsonl"
     audit = AuditRecord(path, memory=10, rotation=RotationPolicy(max_bytes=4_000, keep=2))
     await _fill(audit, 300)
-    on_disk = [json.loads(line) for f in (path.with_name("audit.jsonl.2"),
-               path.with_name("audit.jsonl.1"), path) for line in f.read_bytes().splitlines()]  # fmt: skip
+    files = (path.with_name("audit.jsonl.2"), path.with_name("audit.jsonl.1"), path)
+    on_disk = [json.loads(line) for f in files for line in f.read_bytes().splitlines()]
     page = await audit.page(since=0, limit=10_000)
     assert page == on_disk
     await audit.close()

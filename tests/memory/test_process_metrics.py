@@ -7,6 +7,7 @@ import os
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 from tests.api.sim_app import running_app
 from tests.api.test_metrics import parse_exposition
@@ -21,8 +22,8 @@ def _by_role(family: object) -> dict[str, dict[str, float]]:
 
 
 def _status_rss(pid: int) -> int:
-    text = open(f"/proc/{pid}/status").read()
-    return next(int(line.split()[1]) * 1024 for line in text.splitlines() if line.startswith("VmRSS:"))
+    text = Path(f"/proc/{pid}/status").read_text()
+    return next(int(line.split()[1]) * 1024 for line in text.splitlines() if "VmRSS:" in line)
 
 
 async def test_metrics_give_the_api_process_and_its_children() -> None:
@@ -53,7 +54,7 @@ async def test_metrics_give_the_api_process_and_its_children() -> None:
     assert started["api"][me] <= spawned
     tasks = fams["rc233_process_asyncio_tasks"].samples
     assert [dict(labels)["role"] for _, labels in tasks] == ["api"]
-    assert list(tasks.values())[0] >= 1  # this request runs in one
+    assert next(iter(tasks.values())) >= 1  # this request runs in one
     kept = {dict(labels)["structure"]: v for (_, labels), v in
             fams["rc233_memory_kept_items"].samples.items()}  # fmt: skip
     assert set(kept) == {"audit", "feed_replay"}

@@ -16,7 +16,7 @@ def test_a_ring_keeps_its_count_and_its_bytes_and_the_newest_item():
         ring.append(bytes(10) + bytes([n]))
     assert len(ring) == 5 and ring.nbytes == 55
     assert [item[-1] for item in ring] == [45, 46, 47, 48, 49]
-    for n in range(20):
+    for _ in range(20):
         ring.append(bytes(40))
     assert (len(ring), ring.nbytes) == (2, 80)  # the bytes bind before the count
     ring.append(bytes(500))  # alone over the bytes: the newest still stays
