@@ -5,6 +5,7 @@ from __future__ import annotations
 from typing import Any
 
 from gateway.api.auth_failures import BACKOFF_MAX, FORGET_AFTER, FREE_FAILURES, AuthFailures
+from gateway.api.idempotency import MEMORY_KEYS, IdempotencyStore
 from tests.api.test_auth_failures import FakeClock
 
 
@@ -33,3 +34,11 @@ def test_an_address_still_blocked_or_still_to_be_written_is_kept() -> None:
     assert len(failures) == 2
     assert failures.retry_after("192.0.2.1") is None  # the wait itself is over
     assert BACKOFF_MAX < FORGET_AFTER
+
+
+async def test_keys_chosen_by_clients_stay_at_their_bound_in_memory() -> None:
+    store = IdempotencyStore(clock=FakeClock())
+    assert store.capacity == MEMORY_KEYS == 1_000  # the recent retries; the rest on disk
+    for n in range(3 * MEMORY_KEYS):
+        store.begin(("token", f"key-{n}", "POST", "/api/v1/axes/x/move"), "fingerprint")
+    assert len(store) == MEMORY_KEYS
