@@ -40,6 +40,7 @@ from typing import Any
 
 from line_outside import Bench, descendants, free_port, http, wait_ready
 from websockets.asyncio.client import connect
+from websockets.exceptions import ConnectionClosed
 
 AXES = ("x", "a2", "a3")
 TOPICS = ["axis:*", "controller:*", "loop:*", "events"]
@@ -102,8 +103,25 @@ class Load:
         self.get_ms: list[float] = []  # cached GET /axes/x of the current minute
         self.statuses: dict[int, int] = {}
         self.ws_messages = 0
+        #: connections the gateway closed or reset under a client (each one reconnects),
+        #: with the last reason: a figure of the run, not a reason to end it
+        self.lost: dict[str, int] = {"ws": 0, "http": 0}
+        self.last_loss = ""
+
+    def _lose(self, kind: str, exc: BaseException) -> None:
+        self.lost[kind] += 1
+        self.last_loss = f"{time.strftime('%H:%M:%S')} {kind}: {exc!r}"
+        print(json.dumps({"lost": self.last_loss}), file=sys.stderr, flush=True)
 
     async def ws_client(self, n: int) -> None:
+        while not self.done.is_set():
+            try:
+                await self._ws_session()
+            except (OSError, ConnectionClosed) as exc:
+                self._lose("ws", exc)
+                await asyncio.sleep(1.0)
+
+    async def _ws_session(self) -> None:
         async with connect(f"ws://127.0.0.1:{self.port}/api/v1/ws", max_size=None) as ws:
             await ws.send(json.dumps({"type": "subscribe", "topics": TOPICS}))
             while not self.done.is_set():
@@ -116,6 +134,14 @@ class Load:
 
     async def rest_client(self, n: int) -> None:
         rng = random.Random(n)
+        while not self.done.is_set():
+            try:
+                await self._rest_session(rng)
+            except (OSError, asyncio.IncompleteReadError, IndexError, ValueError) as exc:
+                self._lose("http", exc)
+                await asyncio.sleep(1.0)
+
+    async def _rest_session(self, rng: random.Random) -> None:
         reader, writer = await asyncio.open_connection("127.0.0.1", self.port)
         try:
             while not self.done.is_set():
@@ -205,6 +231,7 @@ async def soak(args: argparse.Namespace, bench: Bench) -> dict[str, Any]:
             "get_p99_ms": p(times, 99),
             "answers": dict(sorted(load.statuses.items())),
             "ws_messages": load.ws_messages,
+            "connections_lost": dict(load.lost),
         }
         minutes.append(row)
         print(json.dumps(row), flush=True)
@@ -236,6 +263,8 @@ async def soak(args: argparse.Namespace, bench: Bench) -> dict[str, Any]:
         "get_p99_ms_last_minute": minutes[-1]["get_p99_ms"],
         "answers": dict(sorted(load.statuses.items())),
         "ws_messages": load.ws_messages,
+        "connections_lost": dict(load.lost),
+        "last_connection_lost": load.last_loss,
         "load_average": round(os.getloadavg()[0], 2),
     }
 
