@@ -50,7 +50,10 @@ class HeapTracer:
         )
 
     def dump(self) -> str:
-        """The growth since the previous dump, as text, also written where configured."""
+        """The growth since the previous dump, as text, also written where configured ("":
+        tracing was stopped meanwhile)."""
+        if not tracemalloc.is_tracing():
+            return ""
         current = self._snapshot()
         stats = current.compare_to(self._previous, "lineno")
         self._previous = current
