@@ -68,18 +68,21 @@ async def exchange(
 
 
 def process_figures(pid: int) -> dict[str, Any]:
-    """RSS (bytes) and open descriptors of ``pid`` and every process below it."""
-    rss, fds, count = 0, 0, 0
+    """RSS (MB, in all and per process) and open descriptors of ``pid`` and every process
+    below it (the line workers)."""
+    each_mb: dict[str, float] = {}
+    fds = 0
     for each in descendants(pid):
         try:
             status = Path(f"/proc/{each}/status").read_text()
-            rss += next(int(line.split()[1]) * 1024 for line in status.splitlines()
-                        if line.startswith("VmRSS:"))  # fmt: skip
+            rss = next(int(line.split()[1]) * 1024 for line in status.splitlines()
+                       if line.startswith("VmRSS:"))  # fmt: skip
             fds += len(os.listdir(f"/proc/{each}/fd"))
-            count += 1
         except (OSError, StopIteration):
-            pass  # gone meanwhile
-    return {"rss_mb": round(rss / 1e6, 2), "fds": fds, "processes": count}
+            continue  # gone meanwhile
+        each_mb[str(each)] = round(rss / 1e6, 2)
+    return {"rss_mb": round(sum(each_mb.values()), 2), "fds": fds, "processes": len(each_mb),
+            "rss_mb_by_pid": each_mb}  # fmt: skip
 
 
 async def asyncio_tasks(port: int) -> int | None:
