@@ -352,9 +352,9 @@ class Operations:
             return
         op.error = error
         op.ended = time.time()
-        key = (op.axis.loop, op.axis.body)
-        if self._active.get(key) is op:
+        if self._active.get(key := (op.axis.loop, op.axis.body)) is op:
             del self._active[key]
+        op.commands = ()  # kept to tell its transaction's end; memory holds 1,000 ended ops
         self.advance(op, state)
         op.finished.set()
         if state is OperationState.UNKNOWN and not self._line_stops.follow(op):
