@@ -92,13 +92,6 @@ bench: $(STAMP) system-tools
 	$(BIN)/python bench/api.py --quick
 	$(BIN)/python bench/dashboard.py --seconds 3
 
-# The gateway's memory under the traffic of a cell, from outside (bench/soak.py; not part of
-# `make test`): the target run is 2 hours, `make soak SOAK_MINUTES=120 SOAK_WARMUP=30`.
-SOAK_MINUTES ?= 3
-SOAK_WARMUP  ?= 1
-soak: $(STAMP)
-	$(BIN)/python bench/soak.py --minutes $(SOAK_MINUTES) --warmup $(SOAK_WARMUP)
-
 # The static checks and the contract tests are CPU-bound and short; the suite mostly waits on
 # simulated lines: side by side they take the time of the suite alone on two cores. The
 # benchmarks run last, on their own, so their figures are not taken beside the tests.
@@ -108,3 +101,10 @@ test: $(STAMP) $(NODE_STAMP) $(OPCUA_CLIENT_STAMP) system-tools
 
 clean:
 	rm -rf $(VENV) $(NODE_DIR)/node_modules $(OPCUA_CLIENT_DIR)/node_modules .pytest_cache .mypy_cache .ruff_cache .coverage .hypothesis
+
+# The gateway's memory under the traffic of a cell, from outside (bench/soak.py; not part of
+# `make test`): the target run is 2 hours, `make soak SOAK_MINUTES=120 SOAK_WARMUP=30`.
+SOAK_MINUTES ?= 3
+SOAK_WARMUP  ?= 1
+soak: $(STAMP)
+	$(BIN)/python bench/soak.py --minutes $(SOAK_MINUTES) --warmup $(SOAK_WARMUP)
