@@ -17,7 +17,7 @@ NODE_STAMP := $(NODE_DIR)/node_modules/.installed
 OPCUA_CLIENT_DIR   := tools/opcua-client
 OPCUA_CLIENT_STAMP := $(OPCUA_CLIENT_DIR)/node_modules/.installed
 
-.PHONY: run test lint typecheck layers unit contract bench clean system-tools
+.PHONY: run test lint typecheck layers unit contract bench soak clean system-tools
 
 $(RUNTIME): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -104,3 +104,10 @@ test: $(STAMP) $(NODE_STAMP) $(OPCUA_CLIENT_STAMP) system-tools
 
 clean:
 	rm -rf $(VENV) $(NODE_DIR)/node_modules $(OPCUA_CLIENT_DIR)/node_modules .pytest_cache .mypy_cache .ruff_cache .coverage .hypothesis
+
+# The gateway's memory under the traffic of a cell, from outside (bench/soak.py; not part of
+# `make test`): the target run is 2 hours, `make soak SOAK_MINUTES=120 SOAK_WARMUP=30`.
+SOAK_MINUTES ?= 3
+SOAK_WARMUP  ?= 1
+soak: $(STAMP)
+	$(BIN)/python bench/soak.py --minutes $(SOAK_MINUTES) --warmup $(SOAK_WARMUP)

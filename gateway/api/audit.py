@@ -32,7 +32,7 @@ from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from gateway.api import audit_ahead
 from gateway.api.asgi_status import call_noting_status
-from gateway.api.audit_log import MEMORY, AuditLog
+from gateway.api.audit_log import PAGE_LIMIT, AuditLog
 from gateway.api.problems import PROBLEM_RESPONSES
 from gateway.api.redaction import redact
 from gateway.api.security import Principal, principal_of, require
@@ -325,7 +325,7 @@ def _since(text: str | None) -> tuple[int | None, datetime | None]:
 async def read_audit(
     request: Request,
     _: Annotated[Principal, Depends(require(Role.ADMIN))],
-    limit: Annotated[int, Query(ge=1, le=MEMORY)] = 100,
+    limit: Annotated[int, Query(ge=1, le=PAGE_LIMIT)] = 100,
     since: Annotated[
         str | None,
         Query(max_length=64, description="a seq (entries after it) or an ISO 8601 time"),
@@ -336,7 +336,7 @@ async def read_audit(
     seq, after = _since(since)
     await audit.flush()  # outcomes still queued are written first: the page shows them
     return AuditPage(
-        entries=[AuditEntry(**e) for e in audit.entries(limit=limit, since=seq, after=after)],
+        entries=[AuditEntry(**e) for e in await audit.page(limit=limit, since=seq, after=after)],
         last_seq=audit.last_seq,
     )
 

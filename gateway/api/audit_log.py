@@ -9,9 +9,9 @@ not be written, and whether the file takes writes (``rc233_audit_log_ok``).
 from __future__ import annotations
 
 from gateway.api.exposition import Exposition
-from gateway.service.audit import MEMORY, AuditRecord
+from gateway.service.audit import MEMORY, PAGE_LIMIT, AuditRecord
 
-__all__ = ["MEMORY", "AuditLog"]
+__all__ = ["MEMORY", "PAGE_LIMIT", "AuditLog"]
 
 
 class AuditLog(AuditRecord):

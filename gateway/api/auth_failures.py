@@ -9,7 +9,10 @@ client address (at most ``CAPACITY`` addresses, the least recently seen forgotte
   blocked, every request from it that needs a token is answered ``429`` with ``Retry-After``
   before its token is looked at (a guess that would have been right is not told apart). A
   missing token is no guess and counts for the record only; a request that authenticates
-  clears the address's count, and so do ``FORGET_AFTER`` seconds without a failure.
+  clears the address's count, and so do ``FORGET_AFTER`` seconds without a failure. An
+  address seen no more for ``FORGET_AFTER`` seconds, neither blocked nor with a record still
+  to write, is forgotten altogether: the book holds the addresses of the last quarter of an
+  hour, not every address that ever failed (at most ``CAPACITY`` whatever the rate).
 * **one record**: the first failure of an address is written (audit entry and a WARNING line)
   at once; those after it are counted and written as one record with the count when
   ``RECORD_INTERVAL`` seconds have passed since, and so on: at most one record an interval,
@@ -79,6 +82,7 @@ class _Address:
     last_request: str = ""
     written_at: float = -math.inf
     timer: asyncio.TimerHandle | None = None
+    seen: float = 0.0  #: the last failure or refusal (the book's clock)
 
 
 class AuthFailures:
@@ -147,6 +151,8 @@ class AuthFailures:
             self._write(address, entry)
 
     def _entry(self, address: str) -> _Address:
+        now = self.clock()
+        self._forget_stale(now)
         entry = self._addresses.get(address)
         if entry is None:
             entry = self._addresses[address] = _Address()
@@ -155,7 +161,21 @@ class AuthFailures:
                 self._write(old, gone)
         else:
             self._addresses.move_to_end(address)
+        entry.seen = now
         return entry
+
+    def _forget_stale(self, now: float) -> None:
+        """Drop the least recently seen addresses that have nothing left to hold."""
+        while self._addresses:
+            address, entry = next(iter(self._addresses.items()))
+            if (
+                now - entry.seen <= FORGET_AFTER
+                or entry.blocked_until > now
+                or entry.pending
+                or entry.throttled
+            ):
+                return
+            del self._addresses[address]
 
     def _note(self, address: str, entry: _Address, request: str) -> None:
         if not entry.pending and not entry.throttled:

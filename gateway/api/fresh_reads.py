@@ -55,7 +55,14 @@ class FreshReadGate:
         self.app = app
         self.starts = (f"{prefix}/axes/", f"{prefix}/controllers/")
         self.per_caller = per_caller
+        #: fresh reads under way per caller; a caller's entry goes with its last read, so
+        #: the table holds the callers reading now and nothing of those who left
         self._under_way: dict[str, int] = {}
+
+    @property
+    def callers(self) -> int:
+        """Callers with a fresh read under way now."""
+        return len(self._under_way)
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         """The ASGI entry point."""

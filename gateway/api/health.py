@@ -18,6 +18,7 @@ from fastapi.responses import Response
 from pydantic import BaseModel
 
 from gateway.api.metrics import CONTENT_TYPE, HttpMetricsMiddleware, Metrics, MetricsSource, WsStats
+from gateway.api.metrics_process import process_exposition
 from gateway.api.problems import PROBLEM_MEDIA_TYPE, Problem, problem_response, problem_type
 from gateway.service.runtime.bus_types import LinkState
 
@@ -107,6 +108,7 @@ async def metrics(request: Request) -> Response:
     audit = getattr(request.app.state, "audit", None)
     if audit is not None:
         text += audit.exposition()
+    text += process_exposition(request.app.state)
     return Response(text, media_type=CONTENT_TYPE)
 
 

@@ -14,8 +14,9 @@ Only responses after which the request may have acted are stored: 2xx, 5xx excep
 an operation in ``Location`` (a motion that ended ``failed`` is a 409 and may have moved the
 axis). Other 4xx and 503 mean nothing was done (refused, leased, loop down: the outcome is
 ``not_done``), so a retry may act then. The
-store in memory is bounded: ``capacity`` keys (oldest dropped first) for ``ttl`` seconds; the
-state store below it answers every key for ``ttl`` seconds (``clock``: seconds since the epoch).
+store in memory is bounded: ``capacity`` keys (``MEMORY_KEYS``, oldest dropped first; each holds
+its response) for ``ttl`` seconds; the state store below it answers every key for ``ttl``
+seconds (``clock``: seconds since the epoch), so memory holds the recent retries only.
 
 Keys outlive the process: they are kept in the state store (``gateway.store``) too. The key of
 a request that starts an operation is written with the operation before its first frame goes
@@ -71,6 +72,7 @@ from gateway.service.store.records import (
 
 __all__ = [
     "HEADER",
+    "MEMORY_KEYS",
     "REPLAYED_HEADER",
     "IdempotencyMiddleware",
     "IdempotencyStore",
@@ -81,6 +83,8 @@ log = logging.getLogger("gateway.api")
 
 #: The methods whose keyed requests are kept: the ones that act.
 KEYED_METHODS = frozenset({"POST", "PUT"})
+#: keys (with their responses) kept in memory; older ones are answered from the state store
+MEMORY_KEYS = 1_000
 #: Keys are opaque to the gateway: printable ASCII, at most this long (a UUID is 36).
 MAX_KEY_LENGTH = 255
 
@@ -118,7 +122,7 @@ class IdempotencyStore:
 
     def __init__(
         self,
-        capacity: int = 10_000,
+        capacity: int = MEMORY_KEYS,
         ttl: float = 86_400.0,
         clock: Callable[[], float] = time.time,
     ) -> None:
@@ -362,7 +366,7 @@ def install_idempotency(
     app: FastAPI,
     durable: StateStore,
     *,
-    capacity: int = 10_000,
+    capacity: int = MEMORY_KEYS,
     ttl: float = 86_400.0,
     clock: Callable[[], float] = time.time,
 ) -> IdempotencyStore:

@@ -18,6 +18,7 @@ from starlette.types import Receive, Scope, Send
 from gateway.api.motion_problems import motion_problem
 from gateway.api.problems import Problem, problem_response, problem_type
 from gateway.errors import NotFoundError
+from gateway.service.operations import history
 from gateway.service.operations.registry import Operations
 from gateway.service.operations.types import OperationState
 
@@ -42,7 +43,7 @@ async def answer_operation(scope: Scope, receive: Receive, send: Send, ident: st
     """The operation a key's request started before the process stopped, as it stands."""
     operations: Operations = scope["app"].state.operations
     try:
-        op = operations.get(ident)
+        op = await history.find(operations, ident)
     except NotFoundError:
         problem = Problem(
             type=problem_type("conflict"),

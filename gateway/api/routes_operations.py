@@ -2,7 +2,8 @@
 
 An operation is one motion request (move, home, jog, step): ``queued`` -> ``sent`` ->
 ``moving`` -> ``done`` | ``failed`` | ``unknown``, with its final position and error. The
-gateway keeps the last 10,000; changes are also published on the WebSocket (``operation``).
+gateway keeps them for a week (the newest 1,000 in memory, older ones read from the state
+store); changes are also published on the WebSocket (``operation``).
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ from fastapi import APIRouter, Depends, Path, Query, Request
 from gateway.api.deps import Viewer
 from gateway.api.problems import PROBLEM_RESPONSES
 from gateway.errors import NotFoundError
+from gateway.service.operations import history
 from gateway.service.operations.registry import Operations
 from gateway.service.operations.types import OperationState, OperationView
 
@@ -37,7 +39,7 @@ async def get_operation(
     _: Viewer,
 ) -> OperationView:
     """One operation (404 when unknown or no longer kept)."""
-    return operations.get(id).view()
+    return (await history.find(operations, id)).view()
 
 
 @router.get("/operations", response_model=list[OperationView])
@@ -56,4 +58,5 @@ async def list_operations(
         except NotFoundError as exc:
             exc.field = "query.axis"
             raise
-    return [op.view() for op in operations.list(axis=ident, state=state, limit=limit)]
+    found = await history.newest(operations, axis=ident, state=state, limit=limit)
+    return [op.view() for op in found]

@@ -2,17 +2,24 @@
 
 Switched at run time for the whole loop or per controller. Bytes
 received are attributed to the controller of the exchange in progress, or to the controller an
-unsolicited message names. The record is bounded: the oldest entries go first.
+unsolicited message names. The record is bounded by count and by bytes (``TRACE_BYTES``:
+a chunk of noise or a long note weighs more than a frame): the oldest entries go first.
 """
 
 from __future__ import annotations
 
-from collections import deque
 from collections.abc import Iterator
 from dataclasses import dataclass
 from enum import StrEnum
 
-__all__ = ["FrameDirection", "LineTrace", "TraceRecord"]
+from gateway.rings import BoundedRing
+
+__all__ = ["TRACE_BYTES", "FrameDirection", "LineTrace", "TraceRecord"]
+
+#: bytes the trace keeps at most, counting each record as its data, its note and a fixed
+#: ``_RECORD_COST`` for the record itself
+TRACE_BYTES = 1024 * 1024
+_RECORD_COST = 100
 
 
 class FrameDirection(StrEnum):
@@ -56,8 +63,8 @@ class TraceRecord:
 class LineTrace:
     """Bounded trace; off until ``enable`` (whole loop) or ``enable_body`` (one controller)."""
 
-    def __init__(self, size: int = 5000) -> None:
-        self._records: deque[TraceRecord] = deque(maxlen=size)
+    def __init__(self, size: int = 5000, max_bytes: int = TRACE_BYTES) -> None:
+        self._records: BoundedRing[TraceRecord] = BoundedRing(size, max_bytes, _record_size)
         self.all = False
         self.bodies: set[str] = set()
         self.hex_mode = False
@@ -103,3 +110,12 @@ class LineTrace:
     def clear(self) -> None:
         """Forget the records."""
         self._records.clear()
+
+    @property
+    def kept(self) -> tuple[int, int]:
+        """Records kept and their bytes (as ``TRACE_BYTES`` counts them)."""
+        return len(self._records), self._records.nbytes
+
+
+def _record_size(record: TraceRecord) -> int:
+    return _RECORD_COST + len(record.data) + len(record.note)

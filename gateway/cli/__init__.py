@@ -120,6 +120,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         from gateway.cli.audit_verify import main as verify_main
 
         return verify_main(words[2:])
+    if words[:1] == ["serve"]:  # the debug switch RC233_TRACEMALLOC, before serve imports
+        from gateway.cli.heap_trace import install_from_env
+
+        install_from_env()
     light = bool(words) and (words[0] in LIGHT_COMMANDS or words[0] == "--version")
     args = (_light_parser(words[0]) if light else build_parser()).parse_args(words)
     code: int = args.func(args)

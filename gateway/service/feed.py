@@ -4,9 +4,9 @@ The feed subscribes to the ``StateCache``'s changes and to ``ServiceEvents`` and
 change into a message with the feed's own sequence number (``seq``, one counter for
 everything, so a client needs one number to resume) and ``time``: the wall clock, seconds
 since the epoch (float), when the feed published it. Every message is encoded to JSON once,
-however many clients get it, and kept in a bounded replay ring (``ws.replay`` messages): the
-gateway's one replay; a client resumes from the number it last saw, or gets a snapshot when
-the ring lost some.
+however many clients get it, and kept in a bounded replay ring (``ws.replay`` messages and at most
+``REPLAY_BYTES`` of their text): the gateway's one replay; a client resumes from the number it
+last saw, or gets a snapshot when the ring lost some.
 
 Topics: ``axis:<id>`` (``loop.body.motor``), ``controller:<id>`` (``loop.body``),
 ``loop:<name>``, ``axis:*``, ``controller:*``, ``loop:*``, ``events`` (every event) and
@@ -39,6 +39,7 @@ from pydantic_core import to_json
 from gateway.bus.state import StateCache
 from gateway.bus.state_types import Change
 from gateway.errors import InvalidInputError, NotFoundError
+from gateway.rings import BoundedRing
 from gateway.service.config import WsSettings
 from gateway.service.control import ControlStates
 from gateway.service.events import EventKind, ServiceEvent, ServiceEvents
@@ -46,7 +47,11 @@ from gateway.service.topology import Topology
 from gateway.service.views import axis_view, controller_view, loop_view
 from gateway.transport.usb_latency import AdapterReport
 
-__all__ = ["TOPIC_RULE", "Feed", "FeedClient", "FeedMessage"]
+__all__ = ["REPLAY_BYTES", "TOPIC_RULE", "Feed", "FeedClient", "FeedMessage"]
+
+#: bytes of JSON text the replay ring keeps at most: a loop of 15 controllers publishing
+#: views of some 700 bytes would otherwise hold ``ws.replay`` of them whatever their size
+REPLAY_BYTES = 4 * 1024 * 1024
 
 TOPIC_RULE = (
     "a topic is axis:<id|name>, controller:<id|name>, loop:<name>, axis:*, controller:*, "
@@ -71,6 +76,10 @@ def _default(value: Any) -> Any:
     if isinstance(value, set | frozenset):
         return sorted(value, key=str)
     return str(value)
+
+
+def _text_size(message: FeedMessage) -> int:
+    return len(message.text)
 
 
 def encode(message: Mapping[str, Any]) -> str:
@@ -187,7 +196,9 @@ class Feed:
         #: changes with this feed's numbers; a client resuming from another stream (the
         #: gateway restarted) gets a snapshot
         self.stream = secrets.token_hex(4)
-        self._ring: deque[FeedMessage] = deque(maxlen=self.settings.replay)
+        self._ring: BoundedRing[FeedMessage] = BoundedRing(
+            self.settings.replay, REPLAY_BYTES, _text_size
+        )
         self._clients: set[FeedClient] = set()
         self.dropped = 0  # clients dropped for a full queue, since start
         self._views: dict[str, dict[str, Any]] = {}
@@ -207,6 +218,11 @@ class Feed:
     def clients(self) -> int:
         """Clients on the feed now."""
         return len(self._clients)
+
+    @property
+    def replay_kept(self) -> tuple[int, int]:
+        """Messages in the replay ring and the bytes of their text."""
+        return len(self._ring), self._ring.nbytes
 
     def backlogs(self) -> list[int]:
         """Each client's messages queued and not yet sent (a slow reader's grows)."""

@@ -2,12 +2,15 @@
 
 ``record`` (``AuditRecord``: write-ahead and queued entries, the newest in memory),
 ``chain_file`` (the file: numbered, chained by SHA-256, cut back on a failed write, rotated),
-``bounds`` (values of bounded size) and ``verify`` (checking files after the fact).
+``bounds`` (values of bounded size), ``history`` (older pages read back from the files) and
+``verify`` (checking files after the fact).
 """
 
 from gateway.service.audit.chain_file import ChainFile, RotationPolicy
 from gateway.service.audit.record import (
     MEMORY,
+    MEMORY_BYTES,
+    PAGE_LIMIT,
     AuditRecord,
     AuditUnavailable,
     FsyncPolicy,
@@ -18,6 +21,8 @@ from gateway.service.audit.verify import Break, Verified, verify
 
 __all__ = [
     "MEMORY",
+    "MEMORY_BYTES",
+    "PAGE_LIMIT",
     "AuditRecord",
     "AuditUnavailable",
     "Break",

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import json
 import logging
 import threading
 from collections import deque
@@ -32,15 +33,44 @@ from pathlib import Path
 from typing import Any, Protocol
 
 from gateway.errors import ServiceError
+from gateway.rings import BoundedRing
 from gateway.service.audit.bounds import bounded
 from gateway.service.audit.chain_file import ChainFile, RotationPolicy
+from gateway.service.audit.history import entries_after, newest_entries
 
-__all__ = ["MEMORY", "AuditRecord", "AuditUnavailable", "FsyncPolicy", "utc_now"]
+__all__ = [
+    "MEMORY",
+    "MEMORY_BYTES",
+    "PAGE_LIMIT",
+    "QUEUE",
+    "AuditRecord",
+    "AuditUnavailable",
+    "FsyncPolicy",
+    "utc_now",
+]
 
 log = logging.getLogger("gateway.audit")
 
-#: entries kept in memory for ``GET /api/v1/audit``, and queued at most while the file fails
-MEMORY = 10_000
+#: entries kept in memory for ``GET /api/v1/audit``: the pages asked most (the newest), served
+#: without reading the file; older pages are read from the file (``history``)
+MEMORY = 1_000
+#: bytes (as JSON text) of the entries kept in memory: an entry is 300 bytes or, with every
+#: value at ``VALUE_LIMIT``, tens of kilobytes, and the count alone would not bound memory
+MEMORY_BYTES = 2 * 1024 * 1024
+#: entries one page may hold (``limit``)
+PAGE_LIMIT = 10_000
+#: entries queued at most while the file fails (the oldest dropped first, counted)
+QUEUE = 10_000
+
+
+def _stamp(moment: datetime) -> str:
+    """``moment`` as entries write their ``time`` (ISO 8601 UTC, ms, ``Z``)."""
+    return moment.astimezone(UTC).isoformat(timespec="milliseconds").replace("+00:00", "Z")
+
+
+def _json_size(entry: dict[str, Any]) -> int:
+    """The bytes of an entry as JSON text (what the ring's byte bound counts)."""
+    return len(json.dumps(entry, ensure_ascii=False, default=str))
 
 
 def utc_now() -> str:
@@ -80,6 +110,8 @@ class AuditRecord:
         path: Path | None = None,
         *,
         memory: int = MEMORY,
+        memory_bytes: int = MEMORY_BYTES,
+        queue: int = QUEUE,
         rotation: RotationPolicy | None = None,
         fsync: FsyncPolicy = FsyncPolicy.MOTION,
         retry_interval: float = 1.0,
@@ -87,9 +119,10 @@ class AuditRecord:
         self.path = path
         self.fsync = fsync
         self.retry_interval = retry_interval
-        self._ring: deque[dict[str, Any]] = deque(maxlen=memory)
+        self._ring: BoundedRing[dict[str, Any]] = BoundedRing(memory, memory_bytes, _json_size)
         self._queue: deque[dict[str, Any]] = deque()
-        self._memory = memory
+        self._queue_limit = queue
+        self.rotation = rotation or RotationPolicy()
         self._drain_lock = threading.Lock()
         self._wake: asyncio.Event | None = None
         self._tried: asyncio.Event | None = None  # set after each pass of the writer
@@ -107,7 +140,7 @@ class AuditRecord:
         self._failing_since: str | None = None
         if path is not None:
             try:
-                self._file = ChainFile(path, rotation)
+                self._file = ChainFile(path, self.rotation)
             except OSError as exc:  # the writer retries; requests that act are refused
                 self._failed(exc, 0)
 
@@ -132,13 +165,42 @@ class AuditRecord:
         if since is not None:
             selected = (e for e in selected if e["seq"] > since)
         if after is not None:
-            stamp = after.astimezone(UTC).isoformat(timespec="milliseconds")
-            stamp = stamp.replace("+00:00", "Z")
+            stamp = _stamp(after)
             selected = (e for e in selected if e["time"] > stamp)
         found = list(selected)
         if since is None and after is None:
             return found[-limit:]
         return found[:limit]
+
+    @property
+    def kept(self) -> tuple[int, int]:
+        """Entries in memory and their bytes (as JSON text)."""
+        return len(self._ring), self._ring.nbytes
+
+    async def page(
+        self, *, limit: int = 100, since: int | None = None, after: datetime | None = None
+    ) -> list[dict[str, Any]]:
+        """What ``entries`` answers, over every entry the files still hold: from memory when
+        it holds the page, else read from the files in a worker thread."""
+        if self.path is None or self._in_ring(limit, since, after):
+            return self.entries(limit=limit, since=since, after=after)
+        path, keep = self.path, max(self.rotation.keep, 1)
+        if since is None and after is None:
+            return await asyncio.to_thread(newest_entries, path, keep, limit)
+        stamp = None if after is None else _stamp(after)
+        return await asyncio.to_thread(entries_after, path, keep, limit, since=since, stamp=stamp)
+
+    def _in_ring(self, limit: int, since: int | None, after: datetime | None) -> bool:
+        if not self._ring:
+            return self.last_seq == 0
+        oldest = self._ring[0]
+        if oldest["seq"] <= 1:  # memory holds every entry there ever was
+            return True
+        if since is None and after is None:
+            return limit <= len(self._ring)
+        if since is not None and since < oldest["seq"] - 1:
+            return False
+        return after is None or str(oldest.get("time", "")) <= _stamp(after)
 
     # ------------------------------------------------------------------ writing
 
@@ -201,7 +263,7 @@ class AuditRecord:
         if self.path is None:
             self._in_memory(entry)
             return
-        if len(self._queue) >= self._memory:
+        if len(self._queue) >= self._queue_limit:
             self._queue.popleft()
             self.dropped += 1
             if self.dropped == 1 or self.dropped % 1000 == 0:  # loud, not a flood of lines
@@ -239,7 +301,7 @@ class AuditRecord:
         """Blocking: one line to the file (a worker thread)."""
         if self._file is None:
             assert self.path is not None
-            self._file = ChainFile(self.path)
+            self._file = ChainFile(self.path, self.rotation)
         stored = self._file.append(entry, fsync=fsync)
         self._ring.append(stored)
         return stored

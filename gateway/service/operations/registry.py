@@ -53,18 +53,22 @@ from gateway.service.store.records import (
 )
 from gateway.service.topology import AxisRef
 
-__all__ = ["Operation", "OperationError", "OperationState", "OperationView", "Operations"]
+__all__ = ["MEMORY", "Operation", "OperationError", "OperationState", "OperationView", "Operations"]
 
 log = logging.getLogger("gateway.service")
+
+#: operations kept in memory (the newest; older ones are read from the store: ``history``)
+MEMORY = 1_000
 
 
 class Operations:
     """Every operation of the gateway (the last ``retention``), and the tracking of the
     active one per controller (its two motors never move together, §2)."""
 
-    def __init__(self, gateway: Runtime, *, retention: int = 10_000) -> None:
+    def __init__(self, gateway: Runtime, *, retention: int = MEMORY) -> None:
         self.gateway = gateway
         self.retention = retention
+        self.forgotten = 0  #: > 0: the store holds operations memory does not (``history``)
         self._ops: OrderedDict[str, Operation] = OrderedDict()
         self._active: dict[tuple[str, str], Operation] = {}
         self._ids = itertools.count(gateway.store.counters.get(OPERATION_COUNTER, 0) + 1)
@@ -89,6 +93,7 @@ class Operations:
         store = self.gateway.store
         await store.run(lambda c: purge(c, time.time()))
         records = await store.run(lambda c: load_operations(c, self.retention))
+        self.forgotten += len(records) >= self.retention
         for record in records:
             op = from_record(record, self.gateway.topology)
             if op is None or op.id in self._ops:
@@ -323,13 +328,11 @@ class Operations:
     def _store(self, op: Operation) -> None:
         self._ops[op.id] = op
         while len(self._ops) > self.retention:
-            oldest = next(iter(self._ops))
-            if self._ops[oldest].state not in FINAL:  # never drop one still running
-                self._ops.move_to_end(oldest)
-                if all(o.state not in FINAL for o in self._ops.values()):
-                    break
-                continue
+            oldest = next((i for i, o in self._ops.items() if o.state in FINAL), None)
+            if oldest is None:  # one still running is never dropped
+                break
             del self._ops[oldest]
+            self.forgotten += 1
 
     def running(self) -> tuple[Operation, ...]:
         """Every operation not yet ended (one at most per controller)."""
@@ -349,9 +352,9 @@ class Operations:
             return
         op.error = error
         op.ended = time.time()
-        key = (op.axis.loop, op.axis.body)
-        if self._active.get(key) is op:
+        if self._active.get(key := (op.axis.loop, op.axis.body)) is op:
             del self._active[key]
+        op.commands = ()  # kept to tell its transaction's end; memory holds 1,000 ended ops
         self.advance(op, state)
         op.finished.set()
         if state is OperationState.UNKNOWN and not self._line_stops.follow(op):
