@@ -48,7 +48,8 @@ def test_the_alert_rules_pass_their_promtool_cases() -> None:
     rules = set(re.findall(r"alert: (\w+)", (PROMETHEUS / "rc233-alerts.yml").read_text()))
     assert rules == tested == {"RC233GatewayAbsent", "RC233LoopDown", "RC233ControllerOffline",
                                "RC233StaleData", "RC233ErrorLatched",
-                               "RC233AdapterSlow", "RC233MemoryGrowing"}  # fmt: skip
+                               "RC233AdapterSlow", "RC233MemoryGrowing",
+                               "RC233LineWorkerDown", "RC233LineWorkerRestarting"}  # fmt: skip
 
 
 def _names(expr: str) -> set[str]:
