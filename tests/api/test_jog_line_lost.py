@@ -140,6 +140,10 @@ async def test_a_jog_whose_controller_alone_went_silent_is_stopped_when_it_answe
 async def test_a_move_whose_line_was_cut_is_not_stopped_when_the_loop_comes_back() -> None:
     # A finite motion ends by itself: the restored line gets no stop for it.
     async with running_app() as api:
+        # Slow (600 pps: 150 device seconds, 3 s of real time here), so that it is still
+        # running, and seen running, when the line is cut, however busy the host.
+        r = await api.client.put("/axes/x/speed", json={"oh": 600})
+        assert r.status_code == 200, r.text
         r = await api.client.post(
             "/axes/x/move", json={"position": 90000, "relative": True, "unit": "pulse"}
         )
