@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from gateway.service.events import EventKind
+from gateway.service.operations.types import OperationState
 from tests.api.sim_app import json_of, running_app
 
 
@@ -44,6 +45,9 @@ async def test_a_wait_that_times_out_answers_202_and_the_motion_goes_on() -> Non
         assert r.headers["location"].endswith(running["id"])
         op = api.operations.get(running["id"])
         assert not op.final
+        # It goes on: seen moving by the gateway's own reads (a stop sent before the jog had
+        # turned the motor would leave it where it started: not carried out).
+        await api.until(lambda: op.state is OperationState.MOVING)
         await api.client.post("/axes/x/stop")
         await api.operations.wait(op.id, 20)
         assert op.state.value == "done"
