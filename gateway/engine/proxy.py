@@ -29,7 +29,7 @@ from gateway.bus.counters import CountersSnapshot
 from gateway.bus.events import BusEvent, EventBus, LinkDown, LinkUp, TransactionDone
 from gateway.bus.lifecycle import LinkState
 from gateway.bus.requests import LoopDown, Priority, TransactionResult
-from gateway.bus.state_types import ErrorKind
+from gateway.bus.state_types import Change, ErrorKind
 from gateway.engine.mirror import StateMirror
 from gateway.engine.remote import PollerProxy, RemoteLine, RemoteTrace
 from gateway.engine.wire import Channel, Kind, decode_error, encode, read_message
@@ -265,9 +265,26 @@ class WorkerClient:
             log.warning("line worker %s: its channel closed", self.name)
             await self.detach(f"line worker {self.name} went away")
 
+    def _link_from(self, change: Change) -> None:
+        """The loop went up or down, as the worker's cache wrote it: its link event comes as
+        a message of its own, after this one (the cache hears the scheduler first), and a
+        client told by the change (the WebSocket's loop records) must find the proxy, which
+        REST and every request read, saying the same meanwhile."""
+        proxy = self.proxies.get(change.loop)
+        up = change.values.get("up")
+        if proxy is None or up is None:
+            return
+        if up:
+            proxy.state, proxy.cause = LinkState.UP, ""
+        elif proxy.state is LinkState.UP:
+            proxy.state = LinkState.DOWN
+            proxy.cause = str(change.values.get("cause") or "the line went down")
+
     def _handle(self, message: tuple[Any, ...]) -> None:
         kind = message[0]
         if kind == Kind.CHANGE:
+            if message[1].body is None:
+                self._link_from(message[1])  # before the mirror tells its followers
             applied = self.mirror.apply(self.name, message[1])
             # a gap (not a change before the snapshot): ask for a snapshot, once
             if not applied and self.mirror.source_seq(self.name) is not None and self._writers:

@@ -17,7 +17,7 @@ import pytest
 from gateway.bus.events import BusEvent, LinkDown
 from gateway.bus.lifecycle import LinkState
 from gateway.bus.requests import LoopDown, Outcome, TransactionError
-from gateway.bus.state_types import AxisState, ControllerState
+from gateway.bus.state_types import AxisState, Change, ControllerState
 from gateway.engine.wire import Kind, encode
 from gateway.protocol.program import parse_program
 from gateway.protocol.registry import parse
@@ -202,3 +202,29 @@ async def test_the_supervisors_word_on_a_death_is_the_last_whatever_the_readers_
     assert refused.value.retry_after == 3.0
     if linked.served is not None:
         await asyncio.wait_for(linked.served, 5.0)
+
+
+async def test_the_proxy_says_what_the_mirror_says_of_the_link_as_soon_as_it_says_it(
+    make_bus: MakeBus, attach: Attach
+) -> None:
+    # The worker's cache hears the scheduler's link events first, so its change reaches the
+    # API process before the link event itself: a WebSocket client told by that change that
+    # the loop is down (or up) and asking REST at once must hear the same from the proxy.
+    bus = await make_bus("1")
+    linked = await attach(bus)
+    proxy = linked.client.proxies[bus.scheduler.name]
+    mirror = linked.client.mirror
+    seen: list[tuple[bool, LinkState]] = []
+    back = asyncio.Event()
+
+    def note(change: Change) -> None:
+        if change.body is None and "up" in change.values:
+            seen.append((bool(change.values["up"]), proxy.state))
+            if change.values["up"]:
+                back.set()
+
+    mirror.changes.subscribe(note)
+    proxy.reopen_at(4800)
+    await asyncio.wait_for(back.wait(), 5.0)
+    assert seen[0] == (False, LinkState.DOWN), seen
+    assert seen[-1] == (True, LinkState.UP), seen
