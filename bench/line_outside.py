@@ -188,9 +188,11 @@ async def http(port: int, method: str, path: str, body: Any = None) -> tuple[int
 async def _exchange(
     reader: asyncio.StreamReader, writer: asyncio.StreamWriter, method: str, path: str, body: Any
 ) -> tuple[int, bytes]:
+    """One request on a keep-alive connection; every request that acts is declared JSON,
+    bodyless too (the gateway refuses it otherwise: 415)."""
     data = b"" if body is None else json.dumps(body).encode()
     head = f"{method} {path} HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Length: {len(data)}\r\n"
-    if body is not None:
+    if method != "GET":
         head += "Content-Type: application/json\r\n"
     writer.write(head.encode() + b"\r\n" + data)
     status = int((await reader.readline()).split()[1])

@@ -39,6 +39,7 @@ from pathlib import Path
 from typing import Any
 
 from line_outside import Bench, descendants, free_port, http, wait_ready
+from line_outside import _exchange as exchange
 from websockets.asyncio.client import connect
 from websockets.exceptions import ConnectionClosed
 
@@ -47,24 +48,6 @@ TOPICS = ["axis:*", "controller:*", "loop:*", "events"]
 #: 2 % of the replies faulted: what the line of the issue's figures saw
 FAULTS = ({"kind": "nak", "probability": 0.01}, {"kind": "garble", "probability": 0.005},
           {"kind": "drop", "probability": 0.005})  # fmt: skip
-
-
-async def exchange(
-    reader: asyncio.StreamReader, writer: asyncio.StreamWriter, method: str, path: str, body: Any
-) -> tuple[int, bytes]:
-    """One request on a keep-alive connection; every request that acts is declared JSON,
-    bodyless too (the gateway refuses it otherwise)."""
-    data = b"" if body is None else json.dumps(body).encode()
-    head = f"{method} {path} HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Length: {len(data)}\r\n"
-    if method != "GET":
-        head += "Content-Type: application/json\r\n"
-    writer.write(head.encode() + b"\r\n" + data)
-    status = int((await reader.readline()).split()[1])
-    length = 0
-    while (line := await reader.readline()) not in (b"\r\n", b""):
-        if line.lower().startswith(b"content-length:"):
-            length = int(line[15:])
-    return status, await reader.readexactly(length)
 
 
 def process_figures(pid: int) -> dict[str, Any]:
