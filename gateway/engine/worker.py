@@ -40,6 +40,10 @@ __all__ = ["LineWorker"]
 
 log = logging.getLogger("gateway.engine")
 
+#: Real seconds between two sendings of the replies' times (``FRESH``): a reading's age as
+#: the API process tells it is at most this late.
+FRESH_SECONDS = 0.5
+
 
 class LineWorker:
     """The loops of one worker, served to one client at a time."""
@@ -80,6 +84,7 @@ class LineWorker:
             unsubscribe.append(scheduler.events.subscribe(self._relay(name, scheduler, send)))
             unsubscribe.append(_relay_trace(name, scheduler, send))
         stop_task = asyncio.create_task(self._read_stops(stop_reader, stop_writer))
+        fresh_task = asyncio.create_task(self._send_fresh(send))
         try:
             while (message := await read_message(reader)) is not None:
                 if message[0] == Kind.RESYNC:
@@ -102,8 +107,11 @@ class LineWorker:
             for undo in unsubscribe:
                 undo()
             stop_task.cancel()
+            fresh_task.cancel()
             with contextlib.suppress(asyncio.CancelledError):
                 await stop_task
+            with contextlib.suppress(asyncio.CancelledError):
+                await fresh_task
             for task in list(self._tasks):
                 task.cancel()
             writer.close()
@@ -127,6 +135,19 @@ class LineWorker:
                   scheduler.queue_depth))  # fmt: skip
 
         return relay
+
+    async def _send_fresh(self, send: Callable[[tuple[Any, ...]], None]) -> None:
+        """Every ``FRESH_SECONDS``, the times of the latest replies that moved since the last
+        sending (``FRESH``): a poll that changes nothing publishes nothing, and yet the
+        client's views must say how old their reading is (``updated``, the ``Age`` header,
+        a metric's timestamp) as the cache of one process does, to within that period."""
+        sent: dict[Any, float] = {}
+        while True:
+            await asyncio.sleep(FRESH_SECONDS)
+            moved = {k: t for k, t in self.state.latest_updates().items() if sent.get(k) != t}
+            if moved:
+                sent.update(moved)
+                send((Kind.FRESH, moved))
 
     async def _read_stops(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
         def send(message: tuple[Any, ...]) -> None:
