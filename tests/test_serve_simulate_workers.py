@@ -195,6 +195,7 @@ async def test_the_control_port_drives_the_simulator_of_the_running_worker(
         await _control(control, op="preset", body="2", motor=1, position=1234)
         seen = await events.until(lambda e: _axis(e, "sim.2.1", lambda d: d["position"] == 1234))
         assert seen["data"]["name"] == "z"
+        assert (await client.get(f"{API}/axes/z")).json()["position"] == 1234
         await _control(control, op="ems", body="3", pressed=True)
         await events.until(lambda e: _axis(e, "sim.3.1", lambda d: d["errors"]["emergency"]))
 
