@@ -14,6 +14,10 @@ Reply events (``ReplyObserved``: one or more a poll) are relayed for every contr
 the client says which it follows (``FOLLOW``: those an operation watches; the state reaches
 the client as changes), so that an idle poll crosses the channel as one ``TransactionDone``.
 
+The time of each controller's and axis's latest reply follows every ``FRESH_SECONDS``
+(``FRESH``: those that moved), since a poll that changed nothing publishes no change; the
+mirror moves its records' ``updated`` silently, so a reading's age is the worker's.
+
 The rest of what the API process reads of a scheduler follows it too: the line's rate and
 adapter report with every link event (``LINE``, before the event), the trace's records while
 the client has it switched on (``TRACED``), and the client's acknowledges of latched errors
