@@ -14,14 +14,17 @@ import json
 import os
 import re
 import signal
+import socket
 from collections.abc import AsyncIterator, Callable
 from contextlib import asynccontextmanager
 from pathlib import Path
 from typing import Any
 
 import httpx
+import pytest
 from websockets.asyncio.client import connect
 
+from gateway.cli import main
 from tests.serve_process import Served, free_port, serve
 
 #: Real seconds to wait for an answer or an event.
@@ -223,3 +226,15 @@ async def test_a_baud_change_reaches_the_simulated_line_through_the_worker(
         assert state["baud"] == 9600
         assert [u["controller"]["baud"] for u in state["units"]] == [9600, 9600, 9600]
         assert _worker_pid(served, "sim")
+
+
+def test_a_control_port_in_use_stops_serve_naming_the_option(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    with socket.create_server(("127.0.0.1", 0)) as taken:
+        port = taken.getsockname()[1]
+        argv = ["serve", "--simulate", "--no-auth", "--port", str(free_port()),
+                "--eeprom-dir", str(tmp_path), "--control", f"127.0.0.1:{port}"]  # fmt: skip
+        assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert f"--control 127.0.0.1:{port}: cannot listen there (Address already in use)" in err

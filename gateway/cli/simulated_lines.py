@@ -14,6 +14,7 @@ the first loop serves the first loop's simulator on it (as ``rc233-gateway sim -
 from __future__ import annotations
 
 import argparse
+import os
 import socket
 from pathlib import Path
 
@@ -81,7 +82,14 @@ def simulated_lines(args: argparse.Namespace, config: GatewayConfig | None) -> S
 
 
 def _control_socket(address: tuple[str, int]) -> socket.socket:
-    """The control surface's listening socket (``OSError``: the port is taken)."""
+    """The control surface's listening socket (``ConfigError`` naming ``--control`` when it
+    cannot listen there: the port is taken, the host is not this machine's)."""
     host, port = address
-    family = socket.getaddrinfo(host, port, type=socket.SOCK_STREAM)[0][0]
-    return socket.create_server((host, port), family=family, backlog=16)
+    try:
+        family = socket.getaddrinfo(host, port, type=socket.SOCK_STREAM)[0][0]
+        return socket.create_server((host, port), family=family, backlog=16)
+    except OSError as exc:
+        # create_server words its own strerror (the address again): the errno's is enough
+        plain = exc.errno and exc.errno > 0 and not isinstance(exc, socket.gaierror)
+        reason = os.strerror(exc.errno) if plain else (exc.strerror or str(exc))
+        raise ConfigError(f"--control {host}:{port}: cannot listen there ({reason})") from None
