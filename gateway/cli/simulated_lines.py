@@ -90,6 +90,7 @@ def _control_socket(address: tuple[str, int]) -> socket.socket:
         return socket.create_server((host, port), family=family, backlog=16)
     except OSError as exc:
         # create_server words its own strerror (the address again): the errno's is enough
-        plain = exc.errno and exc.errno > 0 and not isinstance(exc, socket.gaierror)
-        reason = os.strerror(exc.errno) if plain else (exc.strerror or str(exc))
+        errno = exc.errno or 0
+        plain = errno > 0 and not isinstance(exc, socket.gaierror)
+        reason = os.strerror(errno) if plain else (exc.strerror or str(exc))
         raise ConfigError(f"--control {host}:{port}: cannot listen there ({reason})") from None
