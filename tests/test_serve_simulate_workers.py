@@ -25,6 +25,7 @@ import pytest
 from websockets.asyncio.client import connect
 
 from gateway.cli import main
+from tests.restart_rig import GATEWAY, RestartRig
 from tests.serve_process import Served, free_port, serve
 
 #: Real seconds to wait for an answer or an event.
@@ -238,3 +239,37 @@ def test_a_control_port_in_use_stops_serve_naming_the_option(
         assert main(argv) == 2
     err = capsys.readouterr().err
     assert f"--control 127.0.0.1:{port}: cannot listen there (Address already in use)" in err
+
+
+async def test_a_ctrl_c_to_the_process_group_stops_serve_and_its_workers_cleanly(
+    tmp_path: Path,
+) -> None:
+    """A terminal's Ctrl+C reaches every process of its foreground group (systemd's stop,
+    every process of the unit): the workers leave the stop to ``serve``, which drains them;
+    no worker dies of the signal on its own."""
+    rig = RestartRig(tmp_path, 25.0)
+    await rig.start_sim()
+    try:
+        process = await asyncio.create_subprocess_exec(
+            str(GATEWAY), "serve", "--config", str(rig.config), "--no-auth",
+            "--port", str(free_port()), "--time-scale", "25",
+            stdout=asyncio.subprocess.DEVNULL, stderr=asyncio.subprocess.PIPE, env=rig.env,
+            start_new_session=True,  # its own group, as a shell's foreground job
+        )  # fmt: skip
+        assert process.stderr is not None
+        log: list[str] = []
+        async with asyncio.timeout(WAIT):
+            async for raw in process.stderr:
+                log.append(raw.decode(errors="replace"))
+                if "loop main up" in log[-1]:
+                    break
+        os.killpg(process.pid, signal.SIGINT)
+        async with asyncio.timeout(WAIT):
+            log += [raw.decode(errors="replace") async for raw in process.stderr]
+            code = await process.wait()
+        text = "".join(log)
+        assert code == 0, text
+        assert "line worker main started" in text
+        assert "Traceback" not in text and "killed by SIGINT" not in text, text
+    finally:
+        await rig.close()
