@@ -77,9 +77,8 @@ async def test_a_stopped_poller_sends_nothing_until_started(runtime: Runtime) ->
     polled = asyncio.Event()
 
     def note(e: BusEvent) -> None:  # an unfollowed controller's polls cross in the tally
-        if isinstance(e, TransactionDone) and e.priority is Priority.POLL:
-            polled.set()
-        elif isinstance(e, TransactionsTallied) and e.tallies:
+        alone = isinstance(e, TransactionDone) and e.priority is Priority.POLL
+        if alone or (isinstance(e, TransactionsTallied) and e.tallies):
             polled.set()
 
     scheduler.events.subscribe(note)
