@@ -171,7 +171,10 @@ class Receiver(Sink):
         self.out_of_step = False  # a new connection: nothing is on its way on it yet
         self.parser = ReplyParser()
         self._idle.set()
-        self._delivered = self.transport.deliver(self)
+        try:
+            self._delivered = self.transport.deliver(self)
+        except TransportClosed:  # gone already: a reader task meets it and says why
+            self._delivered = False
         if not self._delivered:
             loop = asyncio.get_running_loop()
             self._reader = loop.create_task(self._read_loop(), name="bus-reader")
@@ -211,7 +214,8 @@ class Receiver(Sink):
             return  # stopped: nobody reads this connection any more
         try:
             self._received(data)
-        except Exception as exc:  # as a reader task's end: the line is gone
+        except Exception as exc:  # as a reader task's end: the line is gone, read no more
+            self._delivered = False
             self.lose(f"read failed: {exc!r}")
 
     def closed(self, error: TransportClosed) -> None:
