@@ -20,6 +20,7 @@ from gateway.bus.state import StateCache
 from gateway.engine.spec import LoopSpec
 from gateway.engine.wire import Channel, Kind, read_message
 from gateway.engine.worker import LineWorker
+from gateway.heap_trace import install_from_env
 from gateway.transport.factory import open_transport
 
 __all__ = ["run_worker"]
@@ -65,6 +66,8 @@ def main() -> None:
     logging.basicConfig(
         level=logging.INFO, format="%(asctime)s %(levelname)s %(name)s [worker]: %(message)s"
     )
+    # RC233_TRACEMALLOC, inherited from serve: the worker's heap is traced on its own
+    install_from_env(role="line worker")
     asyncio.run(run_worker(int(sys.argv[1]), int(sys.argv[2])))
 
 
