@@ -86,7 +86,9 @@ class Poller:
         #: when there is none)
         self._publish = publish or state.handle
         self.loop = loop
-        self._plan = PollPlan(bodies, config or PollConfig(), time_scale)
+        self._plan = PollPlan(
+            bodies, config or PollConfig(), time_scale, stale_after=state.stale_after
+        )
         self._clock = clock
         self._wake = asyncio.Event()
         self._stopping = False
@@ -185,7 +187,7 @@ class Poller:
             self._watch.add(change.body)  # its position stream, from the poller's task
             self._wake.set()
         if change.values.get("moving") is False and self._online(change.body):
-            plan.due[Job.SETTLE] = self.now()  # the move has ended: its final position now
+            plan.times.set(Job.SETTLE, self.now())  # the move has ended: its final position
             self._wake.set()
         if change.values.get("online") is True and Job.PROBE in plan.due:
             # Found silent, and answering again (to anyone): identify it before anything else.
@@ -230,14 +232,15 @@ class Poller:
                         await self._wake.wait()
                 continue
             plan, job = picked
-            plan.ran_due = plan.due.pop(job)
+            plan.ran_due = plan.times.take(job)
             ups = self._ups
             try:
                 await self._run_job(plan, job)
             except LoopDown:
                 if self._ups == ups:  # no LinkUp since: wait for it (it restarts the plan)
                     self._link_up.clear()
-                plan.due.setdefault(job, 0.0)
+                if job not in plan.due:
+                    plan.times.set(job, 0.0)
             except BusError as exc:  # a deadline passed, a refusal: try again next period
                 log.info("loop %s: poll %s of %s failed: %s", self.loop, job.name, plan.body, exc)
                 self._schedule(plan, job)
@@ -250,7 +253,13 @@ class Poller:
         """The next due time of ``job``, from what the cache knows of the controller now."""
         ctl = self._state.flags(self.loop, plan.body)
         self._plan.schedule(
-            plan, job, self.now(), online=ctl.online, moving=bool(ctl.moving), identified=identified
+            plan,
+            job,
+            self.now(),
+            online=ctl.online,
+            moving=bool(ctl.moving),
+            identified=identified,
+            watching=self._positions.streaming,
         )
 
     async def _run_job(self, plan: BodyPlan, job: Job) -> None:
@@ -353,7 +362,7 @@ class Poller:
             plan.misses += 1
             if plan.misses >= self.config.offline_after and self._online(plan.body) is not False:
                 plan.probe_delay = self.config.probe_initial
-                plan.due = {Job.PROBE: now + self._plan.host(plan.probe_delay)}
+                plan.times.replace({Job.PROBE: now + self._plan.host(plan.probe_delay)})
                 # The cache takes it as not moving any more (nothing it said is current).
                 self._publish(
                     ControllerAnswering(loop=self.loop, time=now, body=plan.body, online=False)
@@ -374,7 +383,7 @@ class Poller:
         now = self.now()
         plan.misses = 0
         self._scheduler.forget(plan.body)
-        plan.due = {Job.IDENTIFY: now}
+        plan.times.replace({Job.IDENTIFY: now})
         self._publish(ControllerAnswering(loop=self.loop, time=now, body=plan.body, online=True))
 
 
