@@ -108,16 +108,12 @@ class PollConfig:
 class BodyPlan:
     """The poller's plan for one controller."""
 
+    body: str
     times: DueTimes[Job]
     misses: int = 0  # polls in a row nobody answered
     probe_delay: float = 0.0
     ran_due: float = 0.0  # the due time of the job running (or run last)
     deferred: list[Command] = field(default_factory=list)  # reads refused while moving, to do
-
-    @property
-    def body(self) -> str:
-        """The controller's body number."""
-        return self.times.body
 
     @property
     def due(self) -> Mapping[Job, float]:
@@ -141,7 +137,7 @@ class PollPlan:
         #: host seconds without a reply after which the state cache shows an axis stale
         self.stale_after = stale_after
         self._queue: DueQueue[Job] = DueQueue(rank)
-        self.bodies = {b: BodyPlan(self._queue.add(b)) for b in bodies}
+        self.bodies = {b: BodyPlan(b, self._queue.add(b)) for b in bodies}
 
     def host(self, device_seconds: float) -> float:
         """``device_seconds`` in host seconds."""

@@ -196,6 +196,8 @@ class Poller:
 
     def _take_notes(self) -> None:
         """Do what the events asked for, now that every subscriber has taken them."""
+        if not (self._back or self._poll_soon or self._watch):
+            return  # most polls: nothing was noted
         for body in sorted(self._back):
             self._came_back(self._plan.bodies[body])
         self._back.clear()
