@@ -56,9 +56,7 @@ async def window(seconds: float, mode: str, profile: cProfile.Profile | None) ->
     while not all(state.controller("L", b).framing for b in BODIES):
         await asyncio.sleep(0.1)
     if mode == "watch":  # 2,000,000 pulses at 5,000 pps: longer than any window
-        await scheduler.submit(
-            "7", [parse("22000000"), parse("31")], priority=Priority.OPERATOR
-        )
+        await scheduler.submit("7", [parse("22000000"), parse("31")], priority=Priority.OPERATOR)
         await asyncio.sleep(0.5)
     start_exchanges = scheduler.counters.exchanges
     cpu = time.process_time()
