@@ -18,7 +18,7 @@ import pytest
 from gateway.bus.poller import PollConfig, Poller, attach
 from gateway.bus.scheduler import LoopScheduler
 from gateway.bus.state import Change, StateCache
-from tests.bus.poll_rig import LOOP, SKIPPED, Rig, close_rigs, move, start_rig
+from tests.bus.poll_rig import ALL_BODIES, LOOP, SKIPPED, Rig, close_rigs, move, start_rig
 
 DEFAULTS = PollConfig()
 #: an idle controller's status reads while an axis is watched: 2 s apart, and never as far
@@ -112,3 +112,25 @@ async def test_idle_controllers_stay_fresh_and_a_silent_one_goes_offline_in_time
     await r.until(lambda: not r.state.axis(LOOP, "1", 1).moving, 15.0)
     assert [(c.body, c.motor) for c in stale if c.body != "2"] == []
     assert r.state.axis(LOOP, "2", 1).stale  # the silent one's is, as it should be
+
+
+async def test_among_15_controllers_the_watched_axis_gets_most_of_the_line(
+    rig: Callable[..., Rig],
+) -> None:
+    r = await rig(ALL_BODIES)
+    await r.identified(ALL_BODIES)
+    await move(r, "7", 1, 40000)  # about 8 simulated seconds
+    await r.until(lambda: r.state.controller(LOOP, "7").selection_confirmed)
+    start = r.sim.now() + SPACED  # the idle reads scheduled before the move have run
+    end = start + 4.0
+    await r.sim_time(end)
+    positions = [*r.answered(b"$76\r", start, end), *r.answered(b"$761\r", start, end)]
+    # 14 idle controllers read every second took some 14 exchanges a second of the line's
+    # 55 (and their slow jobs more): 28 position reads a second were left. Spaced, 34 and more.
+    assert len(positions) >= 4.0 * 33, len(positions)
+    # Each idle controller still read at least every 2 s: none turns stale, none is missed.
+    for body in ALL_BODIES.replace("7", ""):
+        reads = status_times(r, body, start - SPACED, end)
+        gaps = [b - a for a, b in pairwise(reads)]
+        assert gaps and max(gaps) < SPACED + LATE, (body, gaps)
+    assert not any(r.state.axis(LOOP, b, m).stale for b in ALL_BODIES for m in (1, 2))
