@@ -125,9 +125,13 @@ async def test_among_15_controllers_the_watched_axis_gets_most_of_the_line(
     end = start + 4.0
     await r.sim_time(end)
     positions = [*r.answered(b"$76\r", start, end), *r.answered(b"$761\r", start, end)]
-    # 14 idle controllers read every second took some 14 exchanges a second of the line's
-    # 55 (and their slow jobs more): 28 position reads a second were left. Spaced, 34 and more.
-    assert len(positions) >= 4.0 * 33, len(positions)
+    frames = r.frames_in(start, end)
+    idle = [f for f in frames if f.data[1:2] != b"7"]
+    # 14 idle controllers read every second, with their slow jobs, took some 26 frames a
+    # second of the line's 55: half of it. Spaced, some 11, and the watched axis has the rest
+    # (in the simulator's seconds: a host busy with other work slows both alike).
+    assert len(idle) <= 4.0 * 16, len(idle)
+    assert len(positions) >= 0.6 * len(frames), (len(positions), len(frames))
     # Each idle controller still read at least every 2 s: none turns stale, none is missed.
     for body in ALL_BODIES.replace("7", ""):
         reads = status_times(r, body, start - SPACED, end)
