@@ -17,7 +17,8 @@ runs the most urgent (the order of ``Job``), then the one due longest. Beside th
 loop's ``PositionStream`` reads the moving axes' positions back to back, in turn (the next
 read asked for the moment the last is answered), while the plan reads a moving controller's
 status every ``moving_period`` (5 Hz and more: the end of the move, limits, EMS) and the idle
-controllers at their own periods, between the stream's reads (a due poll waits for one at
+controllers at their own periods, spaced while the stream reads (``PollPlan.idle_step``: never
+so far that an axis turns stale), between the stream's reads (a due poll waits for one at
 most). Operator commands (a higher priority) always go first. Periods are device seconds;
 the scheduler's ``time_scale`` maps them to host time for the simulator.
 """
