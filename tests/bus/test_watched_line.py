@@ -2,9 +2,10 @@
 
 While a moving axis's position is read back to back, the idle controllers' status reads come
 2 s apart (``watched_idle_period``) rather than 1 s, and their slow jobs three times further
-apart; never so far that an axis turns stale (3 s, ``StateCache.stale_after``), and a
-controller that goes silent meanwhile is still reported offline within
-``watched_idle_period`` + ``idle_period`` and the polls' time-outs. Real time (9600 bps, 1 ms
+apart; never so far that an axis turns stale (3 s, ``StateCache.stale_after``), an EMS on
+a controller that stands is seen within 2 s, and a controller that goes silent meanwhile is
+still reported offline within ``watched_idle_period`` + ``idle_period`` and the polls'
+time-outs. Real time (9600 bps, 1 ms
 turnaround): the line's own speed is what is measured, in the simulator's seconds.
 """
 
@@ -95,7 +96,7 @@ async def test_idle_controllers_stay_fresh_and_a_silent_one_goes_offline_in_time
     r.state.changes.subscribe(
         lambda c: stale.append(c) if c.motor is not None and c.values.get("stale") else None
     )
-    await move(r, "1", 1, 40000)  # about 8 simulated seconds
+    await move(r, "1", 1, 60000)  # about 12 simulated seconds
     await r.until(lambda: r.state.controller(LOOP, "1").selection_confirmed)
     # Well into the spaced plan: body 2 is switched off.
     await r.sim_time(r.sim.now() + SPACED + 0.5)
@@ -108,6 +109,12 @@ async def test_idle_controllers_stay_fresh_and_a_silent_one_goes_offline_in_time
     bound = SPACED + DEFAULTS.idle_period + LATE
     assert r.sim.now() - off < bound, (r.sim.now() - off, bound)
     assert r.state.axis(LOOP, "1", 1).moving  # still watched all along
+    # An EMS on a controller that stands is seen within one spaced period (§10 "" bit 2).
+    pressed = r.sim.now()
+    r.controls.ems("3", True)
+    await r.until(lambda: r.state.axis(LOOP, "3", 1).emergency, 10.0)
+    assert r.sim.now() - pressed < SPACED + LATE, r.sim.now() - pressed
+    assert r.state.axis(LOOP, "1", 1).moving
     # No axis of a controller that answers turned stale because its reads were spaced.
     await r.until(lambda: not r.state.axis(LOOP, "1", 1).moving, 15.0)
     assert [(c.body, c.motor) for c in stale if c.body != "2"] == []
