@@ -78,7 +78,7 @@ class DueQueue(Generic[J]):
         self._timeline: list[tuple[float, str, J]] = []
         self._ready: list[tuple[int, float, str, J]] = []
         self._now = float("-inf")
-        self._limit = 64  # the timeline's size that makes the next pick rebuild it
+        self._limit = 64  # entries in both heaps that make the next pick rebuild them
 
     def add(self, body: str) -> DueTimes[J]:
         """The due times of a new controller."""
