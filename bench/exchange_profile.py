@@ -1,13 +1,15 @@
-"""What one exchange costs the gateway, stage by stage: ``serve`` under cProfile, from outside.
+"""What one exchange costs the gateway, stage by stage: every process of ``serve`` under cProfile.
 
 ``rc233-gateway sim --tcp`` at real time with 15 controllers, and ``rc233-gateway serve`` on
-that loop run under ``cProfile`` (the main thread: the event loop). Two runs: ``idle`` (nothing
-asked, the poller alone) and ``full`` (``--callers`` HTTP clients keep the queue full of
-``POST /loops/main/raw`` reads). The serve process's own CPU (``/proc``) over the window and
-the exchanges (calls of ``LoopCore._send``) give the CPU an exchange; the profile's own time
-of every function, summed by the stage its module belongs to, splits it (the profiler's
-overhead inflates every stage alike, so the shares are the figure, and the unprofiled CPU is
-``line_outside.py``'s).
+that loop, every process of it (the API process and its line workers) run under ``cProfile``
+with a CPU clock: a ``sitecustomize`` put first on the gateway's ``PYTHONPATH`` arms a profiler
+in each, switched on for the window by SIGUSR1 and written out by SIGUSR2 (start-up is not in
+it). Two runs: ``idle`` (nothing asked, the poller alone) and ``full`` (``--callers`` HTTP
+clients keep the queue full of ``POST /loops/main/raw`` reads). Each process's own CPU
+(``/proc``) over the window and the exchanges (calls of ``Link._write``, in the worker) give
+the CPU an exchange; the profile's own time of every function, summed by the stage its module
+belongs to, splits it, per process (the profiler's overhead inflates every stage alike, so the
+shares are the figure, and the unprofiled CPU is ``line_scale.py``'s).
 
     .venv/bin/python bench/exchange_profile.py --seconds 10
     .venv/bin/python bench/exchange_profile.py --mode idle --top 30   # and the hottest functions
@@ -28,7 +30,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from line_outside import Bench, cpu_seconds, free_port, wait_ready
+from line_outside import CLI, Bench, cpu_seconds, descendants, free_port, wait_ready
 from line_outside import _exchange as http_exchange
 
 #: Stages, first match wins: (name, fragments of a module path or function name).
@@ -46,23 +48,22 @@ STAGES: list[tuple[str, tuple[str, ...]]] = [
     ("scheduler", ("bus/scheduler.py", "bus/queue.py", "bus/transaction.py", "bus/exchange.py",
                    "bus/link.py", "bus/lateness.py", "bus/selection.py", "bus/framing_track.py",
                    "bus/requests.py", "bus/retries.py", "bus/verify.py", "bus/lifecycle.py")),
-    ("poller", ("bus/poller.py", "bus/poll_plan.py", "bus/position_stream.py")),
+    ("poller", ("bus/poller.py", "bus/poll_plan.py", "bus/position_stream.py", "bus/due_queue.py")),
     ("HTTP", ("uvicorn", "starlette", "fastapi", "httptools", "h11", "gateway/api/", "pydantic")),
     ("event loop", ("asyncio/", "uvloop", "<built-in method select", "epoll", "selectors.py")),
 ]  # fmt: skip
 
-#: ``serve`` with a profiler of CPU time (not wall time: the event loop's waits are no cost)
-#: switched on by SIGUSR1 and written out by SIGUSR2, so start-up is not in the window.
-PROFILED = """
-import cProfile, signal, sys, time
-from gateway.cli import main
-profile = cProfile.Profile(time.process_time)
-def dump(*_):
-    profile.disable()
-    profile.dump_stats({out!r})
-signal.signal(signal.SIGUSR1, lambda *_: profile.enable())
-signal.signal(signal.SIGUSR2, dump)
-sys.exit(main())
+#: Put first on the gateway's ``PYTHONPATH``: every Python process started with it (the serve
+#: process, its line workers) arms a profiler of CPU time (not wall time: the event loop's
+#: waits are no cost), switched on by SIGUSR1 and written to ``DIR/PID.prof`` by SIGUSR2.
+SITECUSTOMIZE = """
+import cProfile, os, signal, time
+_profile = cProfile.Profile(time.process_time)
+def _dump(*_):
+    _profile.disable()
+    _profile.dump_stats(os.path.join({out!r}, f"{{os.getpid()}}.prof"))
+signal.signal(signal.SIGUSR1, lambda *_: _profile.enable())
+signal.signal(signal.SIGUSR2, _dump)
 """
 
 
@@ -117,7 +118,13 @@ async def one_run(
     sim_port, http_port = free_port(), free_port()
     bodies = list("0123456789ABCDE")
     bench.sim(sim_port, ",".join(bodies))
-    out = bench.tmp / f"{mode}.prof"
+    out = bench.tmp / f"{mode}-profiles"
+    site = bench.tmp / f"{mode}-site"
+    out.mkdir()
+    site.mkdir()
+    (site / "sitecustomize.py").write_text(SITECUSTOMIZE.format(out=str(out)))
+    before = bench.env.get("PYTHONPATH")
+    bench.env["PYTHONPATH"] = os.pathsep.join(p for p in (str(site), before) if p)
     controllers = "".join(
         f'\n[[loops.controllers]]\nbody = "{b}"\nname = "c{b}"\n[[loops.controllers.axes]]\n'
         f'motor = 1\nname = "{"x" if b == "1" else "a" + b}"\n'
@@ -128,47 +135,63 @@ async def one_run(
         f'[[loops]]\nname = "main"\nport = "socket://127.0.0.1:{sim_port}"\n{controllers}'
     )
     proc = bench.start(
-        "-c", PROFILED.format(out=str(out)), "serve", "--config", str(cell), "--no-auth",
+        *CLI, "serve", "--config", str(cell), "--no-auth",
         "--port", str(http_port), ready="rc233-gateway serve", log=f"serve-{mode}",
     )  # fmt: skip
+    if before is None:
+        del bench.env["PYTHONPATH"]
+    else:
+        bench.env["PYTHONPATH"] = before
     await wait_ready(http_port, "/api/v1/axes/x")
-    await asyncio.sleep(2.0)
+    await asyncio.sleep(8.0)  # past the first reads of every controller (they change the state)
     done = asyncio.Event()
     load = None
     if mode == "full":
         load = asyncio.create_task(keep_full(http_port, callers, bodies, done))
     await asyncio.sleep(0.5)
-    proc.send_signal(signal.SIGUSR1)
-    start = (time.monotonic(), cpu_seconds(proc.pid), os.getloadavg()[0])
+    pids = descendants(proc.pid)  # the serve process and its line workers
+    for pid in pids:
+        os.kill(pid, signal.SIGUSR1)
+    start = (time.monotonic(), {pid: cpu_seconds(pid) for pid in pids}, os.getloadavg()[0])
     await asyncio.sleep(seconds)
-    end = (time.monotonic(), cpu_seconds(proc.pid))
-    proc.send_signal(signal.SIGUSR2)
+    end = (time.monotonic(), {pid: cpu_seconds(pid) for pid in pids})
+    for pid in pids:
+        os.kill(pid, signal.SIGUSR2)
     done.set()
     if load is not None:
         await load
-    while not out.exists():
+    files = [out / f"{pid}.prof" for pid in pids]
+    while not all(f.exists() for f in files):
         await asyncio.sleep(0.1)
     await asyncio.sleep(0.5)  # written
     bench.stop(proc)
+    split_by = {pid: split(pstats.Stats(str(f)), top) for pid, f in zip(pids, files, strict=True)}
     if keep is not None:
-        shutil.copy(out, keep / out.name)
-    exchanges, stages, functions = split(pstats.Stats(str(out)), top)
-    total = sum(stages.values())
-    cpu = end[1] - start[1]
+        for f in files:
+            shutil.copy(f, keep / f"{mode}-{f.name}")
+    exchanges = max(1, sum(figures[0] for figures in split_by.values()))
+    elapsed = end[0] - start[0]
+    processes = {}
+    for pid, (_, stages, functions) in split_by.items():
+        name = "api" if pid == proc.pid else f"worker {pid}"
+        cpu = end[1][pid] - start[1][pid]
+        processes[name] = {
+            "profiled_cpu_percent": round(cpu / elapsed * 100, 2),
+            "cpu_ms_per_exchange_profiled": round(cpu / exchanges * 1e3, 3),
+            # CPU seconds the profile saw in Python functions (the profiler's own cost is not
+            # in them; the process's CPU above includes it).
+            "us_per_exchange_in_profile": round(sum(stages.values()) / exchanges * 1e6, 1),
+            "stages_us_per_exchange": {
+                stage: round(own / exchanges * 1e6, 1)
+                for stage, own in sorted(stages.items(), key=lambda item: -item[1])
+            },
+            "top": [f"{round(own / exchanges * 1e6, 1)} us  {fn}" for fn, own in functions],
+        }
     return {
         "mode": mode,
         "load_average": round(start[2], 2),
-        "profiled_cpu_percent": round(cpu / (end[0] - start[0]) * 100, 2),
-        "cpu_ms_per_exchange_profiled": round(cpu / max(1, exchanges) * 1e3, 3),
         "exchanges": exchanges,
-        # CPU seconds the profile saw in Python functions (the profiler's own cost is not in
-        # them; the process's CPU above includes it).
-        "us_per_exchange_in_profile": round(total / max(1, exchanges) * 1e6, 1),
-        "stages_us_per_exchange": {
-            name: round(own / max(1, exchanges) * 1e6, 1)
-            for name, own in sorted(stages.items(), key=lambda item: -item[1])
-        },
-        "top": [f"{round(own / max(1, exchanges) * 1e6, 1)} us  {name}" for name, own in functions],
+        "processes": processes,
     }
 
 

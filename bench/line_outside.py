@@ -367,11 +367,14 @@ async def run(args: argparse.Namespace, bench: Bench) -> dict[str, Any]:
     sent, start, end = await line_phase(ports["h"], args.seconds, args.callers)
     trace = await http(ports["h"], "GET", "/api/v1/loops/main/trace")
     own_late = await sim_lateness(ports["control"])
-    # Phase 2: one watched axis moving, nothing else asked.
+    # Phase 2: one watched axis moving, nothing else asked. ``--watch-settle``: first let the
+    # poller finish what the line phase held back (the first reads of controllers the load
+    # starved), and let the plan settle into its watched rhythm after the move starts.
+    await asyncio.sleep(args.watch_settle)
     move = {"position": 2_000_000, "relative": True, "unit": "pulse"}
     status, text = await http(ports["h"], "POST", "/api/v1/axes/x/move", move)
     assert status == 202, text
-    await asyncio.sleep(0.3)
+    await asyncio.sleep(max(0.3, args.watch_settle))
     watch = (time.monotonic(), time.monotonic() + args.seconds)
     await asyncio.sleep(args.seconds)
     await http(ports["h"], "POST", "/api/v1/axes/x/stop", {})
@@ -445,6 +448,13 @@ def main() -> None:
     parser.add_argument("--seconds", type=float, default=10.0, help="seconds a phase")
     parser.add_argument("--callers", type=int, default=12, help="HTTP clients in phase 1")
     parser.add_argument("--src", type=Path, help="run the gateway from this source tree")
+    parser.add_argument(
+        "--watch-settle",
+        type=float,
+        default=0.0,
+        help="seconds waited before the watched move and before its window (0: at once; "
+        "the steady state of a watched axis: 3)",
+    )
     parser.add_argument(
         "--python",
         default=sys.executable,

@@ -18,9 +18,10 @@ the last minute.
     .venv/bin/python bench/soak.py --minutes 3 --warmup 1       # what `make soak` runs
     .venv/bin/python bench/soak.py --minutes 30 --tracemalloc 5  # heap dumps every 5 minutes
 
-``--tracemalloc N`` starts serve with ``RC233_TRACEMALLOC=1`` and sends it ``SIGUSR2`` every N
-minutes: the lines that allocated most since the previous dump land in ``--heap-out``
-(``gateway.cli.heap_trace``). Tracing inflates RSS: take the RSS figures from a run without it.
+``--tracemalloc N`` starts serve with ``RC233_TRACEMALLOC=1`` and sends it and its line
+workers ``SIGUSR2`` every N minutes: the lines that allocated most since the previous dump land
+in ``--heap-out`` (``gateway.heap_trace``), each dump naming its process. Tracing inflates
+RSS: take the RSS figures from a run without it.
 """
 
 from __future__ import annotations
@@ -66,6 +67,15 @@ def process_figures(pid: int) -> dict[str, Any]:
         each_mb[str(each)] = round(rss / 1e6, 2)
     return {"rss_mb": round(sum(each_mb.values()), 2), "fds": fds, "processes": len(each_mb),
             "rss_mb_by_pid": each_mb}  # fmt: skip
+
+
+def dump_heaps(pid: int) -> None:
+    """Ask serve and every line worker under it for a heap dump (each traces its own)."""
+    for each in descendants(pid):
+        try:
+            os.kill(each, signal.SIGUSR2)
+        except ProcessLookupError:
+            continue  # gone meanwhile
 
 
 async def asyncio_tasks(port: int) -> int | None:
@@ -196,7 +206,7 @@ async def soak(args: argparse.Namespace, bench: Bench) -> dict[str, Any]:
         assert answer.get("ok"), answer
     before = {**process_figures(pid), "tasks": await asyncio_tasks(http_port)}
     if args.tracemalloc:
-        os.kill(pid, signal.SIGUSR2)  # the first dump is the start: later ones what grew
+        dump_heaps(pid)  # the first dump is the start: later ones what grew
     print(json.dumps({"before_clients": before}), flush=True)
     load = Load(http_port, args.pause)
     clients = [asyncio.create_task(load.ws_client(n)) for n in range(args.ws_clients)]
@@ -222,7 +232,7 @@ async def soak(args: argparse.Namespace, bench: Bench) -> dict[str, Any]:
         minutes.append(row)
         print(json.dumps(row), flush=True)
         if args.tracemalloc and minute % args.tracemalloc == 0:
-            os.kill(pid, signal.SIGUSR2)
+            dump_heaps(pid)
     load.done.set()
     await asyncio.gather(*clients)
     # The gateway closes what the clients left within its own time-outs: wait for them.

@@ -21,6 +21,7 @@ import re
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, fields
+from enum import Enum
 from typing import Protocol
 
 from fastapi import FastAPI
@@ -39,6 +40,7 @@ from gateway.service.runtime.bus_types import (
     LinkState,
     LoopConfig,
     TransactionDone,
+    TransactionsTallied,
 )
 from gateway.service.runtime.runtime import Runtime
 
@@ -262,6 +264,18 @@ class _LoopWatch:
     outcomes: dict[str, int] = field(default_factory=dict)
 
 
+def _count(watch: _LoopWatch, priority: Enum, outcome: str, duration: float) -> None:
+    """One transaction ended: its duration by priority, the line's busy time, its outcome."""
+    name = priority.name.lower()
+    hist = watch.durations.get(name)
+    if hist is None:
+        hist = watch.durations[name] = Histogram(TRANSACTION_BUCKETS)
+    hist.observe(duration)
+    watch.busy += duration
+    key = str(outcome)
+    watch.outcomes[key] = watch.outcomes.get(key, 0) + 1
+
+
 class Metrics:
     """Everything ``/metrics`` shows; ``attach()`` (again) after loops are added."""
 
@@ -297,14 +311,10 @@ class Metrics:
     def _on_event_of(watch: _LoopWatch) -> Callable[[BusEvent], None]:
         def on_event(event: BusEvent) -> None:
             if isinstance(event, TransactionDone):
-                priority = event.priority.name.lower()
-                hist = watch.durations.get(priority)
-                if hist is None:
-                    hist = watch.durations[priority] = Histogram(TRANSACTION_BUCKETS)
-                hist.observe(event.duration)
-                watch.busy += event.duration
-                outcome = str(event.outcome)
-                watch.outcomes[outcome] = watch.outcomes.get(outcome, 0) + 1
+                _count(watch, event.priority, event.outcome, event.duration)
+            elif isinstance(event, TransactionsTallied):  # a worker's idle polls, in bulk
+                for tally in event.tallies:
+                    _count(watch, tally.priority, tally.outcome, tally.duration)
 
         return on_event
 

@@ -25,7 +25,12 @@ from gateway import __version__
 from gateway.api.exposition import Exposition
 from gateway.service.events import EventKind, ServiceEvent
 from gateway.service.operations.types import FINAL
-from gateway.service.runtime.bus_types import BusEvent, ErrorKind, TransactionDone
+from gateway.service.runtime.bus_types import (
+    BusEvent,
+    ErrorKind,
+    TransactionDone,
+    TransactionsTallied,
+)
 from gateway.service.runtime.runtime import Runtime
 
 __all__ = ["CellMetrics", "render_build_and_process"]
@@ -71,13 +76,20 @@ class CellMetrics:
             self.operations[key] = self.operations.get(key, 0) + 1
 
     def _on_bus(self, event: BusEvent) -> None:
+        if isinstance(event, TransactionsTallied):  # a worker's idle polls, in bulk
+            for tally in event.tallies:
+                self._moved(f"{event.loop}.{tally.body}", tally.timeouts, tally.retries)
+            self._last[event.loop] = (event.counters.timeouts, event.counters.retries)
+            return
         if not isinstance(event, TransactionDone):
             return
         timeouts, retries = event.counters.timeouts, event.counters.retries
         last = self._last.get(event.loop, (timeouts, retries))
         self._last[event.loop] = (timeouts, retries)
-        controller = f"{event.loop}.{event.body}"
-        for counter, moved in (("timeouts", timeouts - last[0]), ("retries", retries - last[1])):
+        self._moved(f"{event.loop}.{event.body}", timeouts - last[0], retries - last[1])
+
+    def _moved(self, controller: str, timeouts: int, retries: int) -> None:
+        for counter, moved in (("timeouts", timeouts), ("retries", retries)):
             if moved > 0:
                 key = (controller, counter)
                 self.by_controller[key] = self.by_controller.get(key, 0) + moved

@@ -17,6 +17,8 @@ from gateway.bus.events import (
     ReplyObserved,
     SelectionChanged,
     TransactionDone,
+    TransactionsTallied,
+    TransactionTally,
     UnsolicitedMessage,
 )
 from gateway.bus.requests import (
@@ -59,5 +61,7 @@ __all__ = [
     "TransactionDone",
     "TransactionError",
     "TransactionResult",
+    "TransactionTally",
+    "TransactionsTallied",
     "UnsolicitedMessage",
 ]

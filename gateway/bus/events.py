@@ -18,7 +18,7 @@ import asyncio
 import logging
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Generic, TypeVar
+from typing import Generic, NamedTuple, TypeVar
 
 from gateway.bus.counters import CountersSnapshot
 from gateway.bus.requests import Outcome, Priority
@@ -37,6 +37,8 @@ __all__ = [
     "ReplyObserved",
     "SelectionChanged",
     "TransactionDone",
+    "TransactionTally",
+    "TransactionsTallied",
     "UnsolicitedMessage",
 ]
 
@@ -106,6 +108,29 @@ class TransactionDone(BusEvent):
     priority: Priority
     duration: float
     exchanges: int
+    counters: CountersSnapshot
+
+
+class TransactionTally(NamedTuple):
+    """What the metrics read of one ``TransactionDone``, in plain fields (cheap to carry):
+    ``timeouts`` and ``retries`` are what the loop's counters gained with it."""
+
+    body: str
+    priority: Priority
+    outcome: Outcome
+    duration: float
+    exchanges: int
+    timeouts: int
+    retries: int
+
+
+@dataclass(frozen=True, kw_only=True)
+class TransactionsTallied(BusEvent):
+    """The transactions that ended over a period and were not published one by one (a line
+    worker's idle polls of controllers nobody follows), in the order they ended;
+    ``counters`` are the loop's totals after the last of them."""
+
+    tallies: tuple[TransactionTally, ...]
     counters: CountersSnapshot
 
 

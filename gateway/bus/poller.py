@@ -17,7 +17,8 @@ runs the most urgent (the order of ``Job``), then the one due longest. Beside th
 loop's ``PositionStream`` reads the moving axes' positions back to back, in turn (the next
 read asked for the moment the last is answered), while the plan reads a moving controller's
 status every ``moving_period`` (5 Hz and more: the end of the move, limits, EMS) and the idle
-controllers at their own periods, between the stream's reads (a due poll waits for one at
+controllers at their own periods, spaced while the stream reads (``PollPlan.idle_step``: never
+so far that an axis turns stale), between the stream's reads (a due poll waits for one at
 most). Operator commands (a higher priority) always go first. Periods are device seconds;
 the scheduler's ``time_scale`` maps them to host time for the simulator.
 """
@@ -86,7 +87,9 @@ class Poller:
         #: when there is none)
         self._publish = publish or state.handle
         self.loop = loop
-        self._plan = PollPlan(bodies, config or PollConfig(), time_scale)
+        self._plan = PollPlan(
+            bodies, config or PollConfig(), time_scale, stale_after=state.stale_after
+        )
         self._clock = clock
         self._wake = asyncio.Event()
         self._stopping = False
@@ -185,7 +188,7 @@ class Poller:
             self._watch.add(change.body)  # its position stream, from the poller's task
             self._wake.set()
         if change.values.get("moving") is False and self._online(change.body):
-            plan.due[Job.SETTLE] = self.now()  # the move has ended: its final position now
+            plan.times.set(Job.SETTLE, self.now())  # the move has ended: its final position
             self._wake.set()
         if change.values.get("online") is True and Job.PROBE in plan.due:
             # Found silent, and answering again (to anyone): identify it before anything else.
@@ -194,6 +197,8 @@ class Poller:
 
     def _take_notes(self) -> None:
         """Do what the events asked for, now that every subscriber has taken them."""
+        if not (self._back or self._poll_soon or self._watch):
+            return  # most polls: nothing was noted
         for body in sorted(self._back):
             self._came_back(self._plan.bodies[body])
         self._back.clear()
@@ -230,14 +235,15 @@ class Poller:
                         await self._wake.wait()
                 continue
             plan, job = picked
-            plan.ran_due = plan.due.pop(job)
+            plan.ran_due = plan.times.take(job)
             ups = self._ups
             try:
                 await self._run_job(plan, job)
             except LoopDown:
                 if self._ups == ups:  # no LinkUp since: wait for it (it restarts the plan)
                     self._link_up.clear()
-                plan.due.setdefault(job, 0.0)
+                if job not in plan.due:
+                    plan.times.set(job, 0.0)
             except BusError as exc:  # a deadline passed, a refusal: try again next period
                 log.info("loop %s: poll %s of %s failed: %s", self.loop, job.name, plan.body, exc)
                 self._schedule(plan, job)
@@ -250,7 +256,13 @@ class Poller:
         """The next due time of ``job``, from what the cache knows of the controller now."""
         ctl = self._state.flags(self.loop, plan.body)
         self._plan.schedule(
-            plan, job, self.now(), online=ctl.online, moving=bool(ctl.moving), identified=identified
+            plan,
+            job,
+            self.now(),
+            online=ctl.online,
+            moving=bool(ctl.moving),
+            identified=identified,
+            watching=self._positions.streaming,
         )
 
     async def _run_job(self, plan: BodyPlan, job: Job) -> None:
@@ -353,7 +365,7 @@ class Poller:
             plan.misses += 1
             if plan.misses >= self.config.offline_after and self._online(plan.body) is not False:
                 plan.probe_delay = self.config.probe_initial
-                plan.due = {Job.PROBE: now + self._plan.host(plan.probe_delay)}
+                plan.times.replace({Job.PROBE: now + self._plan.host(plan.probe_delay)})
                 # The cache takes it as not moving any more (nothing it said is current).
                 self._publish(
                     ControllerAnswering(loop=self.loop, time=now, body=plan.body, online=False)
@@ -374,7 +386,7 @@ class Poller:
         now = self.now()
         plan.misses = 0
         self._scheduler.forget(plan.body)
-        plan.due = {Job.IDENTIFY: now}
+        plan.times.replace({Job.IDENTIFY: now})
         self._publish(ControllerAnswering(loop=self.loop, time=now, body=plan.body, online=True))
 
 

@@ -97,6 +97,11 @@ class PositionStream:
         self.reads = 0  # reads answered (diagnostics)
 
     @property
+    def streaming(self) -> bool:
+        """Whether a moving axis is read now (the poll plan spaces the idle polls then)."""
+        return bool(self._watched)
+
+    @property
     def watched(self) -> list[str]:
         """The controllers whose moving axis is read now."""
         return list(self._watched)

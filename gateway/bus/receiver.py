@@ -1,6 +1,6 @@
-"""The receiving side of one loop's port: the reader task, the reply parser, the routing.
+"""The receiving side of one loop's port: the reply parser fed as bytes come, the routing.
 
-A reader task reads the port all the time, so unsolicited messages (``$B#*``, ``$B#T``, program
+The port is read all the time, so unsolicited messages (``$B#*``, ``$B#T``, program
 output, §10 AW/DW/IW/EE///, §10 T, §11-3) are recognised between and around replies; the
 parser (``gateway.protocol.reply_parser``) never lets them satisfy a pending reply. Each event
 goes to the exchange awaiting a reply (when it is that reply), to the scheduler (unsolicited
@@ -8,6 +8,10 @@ messages), or is counted: late (after a time-out), garbled, or stray (framing hi
 program's output goes to the scheduler even while a late reply is awaited (``printed``, while
 a program may print): no printed line is lost for a reply that did not come.
 A message left half-received is ended when the line has been quiet for a few characters.
+
+The transport hands each chunk over from its ``data_received`` (``Transport.deliver``): the
+parser runs there and the exchange awaiting the reply is woken from there, with no reader task
+woken per chunk in between. A transport that cannot (a test's own) is read by a reader task.
 """
 
 from __future__ import annotations
@@ -29,7 +33,7 @@ from gateway.protocol.reply_parser import (
     Unsolicited,
     UnsolicitedKind,
 )
-from gateway.transport.base import Transport, TransportClosed
+from gateway.transport.base import Sink, Transport, TransportClosed
 
 __all__ = ["ALWAYS_MEANT", "LinkLost", "Pending", "Receiver", "printed"]
 
@@ -99,8 +103,8 @@ class Pending:
             self.wake = None
 
 
-class Receiver:
-    """The port of one loop as far as reading goes: reader task, parser, routing."""
+class Receiver(Sink):
+    """The port of one loop as far as reading goes: what it receives, parser, routing."""
 
     def __init__(
         self,
@@ -128,6 +132,8 @@ class Receiver:
         self.parser = ReplyParser()
         self._pending: Pending | None = None
         self._reader: asyncio.Task[None] | None = None
+        #: the transport hands chunks over itself (``received``): no reader task
+        self._delivered = False
         self._quiet_handle: asyncio.TimerHandle | None = None
         self._idle = asyncio.Event()  # no message half-received
         self._idle.set()
@@ -165,11 +171,21 @@ class Receiver:
         self.out_of_step = False  # a new connection: nothing is on its way on it yet
         self.parser = ReplyParser()
         self._idle.set()
-        self._reader = asyncio.get_running_loop().create_task(self._read_loop(), name="bus-reader")
+        try:
+            self._delivered = self.transport.deliver(self)
+        except TransportClosed:  # gone already: a reader task meets it and says why
+            self._delivered = False
+        if not self._delivered:
+            loop = asyncio.get_running_loop()
+            self._reader = loop.create_task(self._read_loop(), name="bus-reader")
 
     async def stop(self) -> None:
         """Stop reading; a pending exchange fails with ``LinkLost``."""
         self.lose("stopped")
+        if self._delivered:
+            self._delivered = False
+            with contextlib.suppress(TransportClosed):
+                self.transport.deliver(None)  # what still comes waits for the next start
         if self._reader is not None:
             self._reader.cancel()
             with contextlib.suppress(asyncio.CancelledError, Exception):
@@ -191,6 +207,21 @@ class Receiver:
             pending.fail(LinkLost(self.lost_cause))
 
     # ------------------------------------------------------------------ receiving
+
+    def received(self, data: bytes) -> None:
+        """A chunk from the transport's ``data_received`` (``Sink``)."""
+        if not self._delivered:
+            return  # stopped: nobody reads this connection any more
+        try:
+            self._received(data)
+        except Exception as exc:  # as a reader task's end: the line is gone, read no more
+            self._delivered = False
+            self.lose(f"read failed: {exc!r}")
+
+    def closed(self, error: TransportClosed) -> None:
+        """The connection is gone (``Sink``)."""
+        self._delivered = False
+        self.lose(f"transport closed: {error}")
 
     async def _read_loop(self) -> None:
         try:

@@ -24,6 +24,7 @@ the latch rules in ``latches``.
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import replace
 from types import MappingProxyType
@@ -95,6 +96,9 @@ class StateCache:
         #: the ``updated`` of controllers and axes whose latest reply changed nothing else
         #: (``_fold``), by their keys: (loop, body) and (loop, body, motor)
         self._fresh: dict[tuple[str, str] | tuple[str, str, int], float] = {}
+        #: no axis that is not stale was updated before this (``refresh`` walks the axes only
+        #: once the oldest of them may have turned stale; -inf: not known, walk)
+        self._oldest_fresh = -math.inf
 
     # ------------------------------------------------------------------ reading
 
@@ -184,12 +188,16 @@ class StateCache:
             old = store[key] = blank()
         if updated is not None:
             self._fresh[key] = updated
+            if updated < self._oldest_fresh:  # an older reading than any known: walk again
+                self._oldest_fresh = -math.inf
         changed = {k: v for k, v in values.items() if getattr(old, k) != v}
         if not changed:
             return False
         if updated is not None:  # published with the fields that changed, as it was read
             changed["updated"] = self._fresh.pop(key)
         store[key] = replace(old, **changed)
+        if changed.get("stale") is False:  # fresh again: ``refresh`` must watch it (walk)
+            self._oldest_fresh = -math.inf
         self._seq += 1
         loop, body, motor = where
         self.changes.publish(Change(self._seq, now, loop, body, motor, MappingProxyType(changed)))
@@ -389,7 +397,15 @@ class StateCache:
         return last is None or now - last >= self.counters_period
 
     def refresh(self, now: float) -> None:
-        """Mark the axes without fresh data for ``stale_after`` seconds stale."""
+        """Mark the axes without fresh data for ``stale_after`` seconds stale.
+
+        Called after every poll, it walks the axes only once the oldest reading among the
+        axes not stale may be too old (the same test as for each axis, on the oldest): an
+        idle poll of a loop whose axes are all fresh costs one comparison."""
+        if now - self._oldest_fresh <= self.stale_after:
+            return
+        self._oldest_fresh = math.inf  # lowered by what turns fresh during the walk too
+        oldest = math.inf
         for key, axis in list(self._axes.items()):
             if axis.stale:
                 continue
@@ -397,6 +413,9 @@ class StateCache:
             updated = self._fresh.get(key, axis.updated)
             if updated is None or now - updated > self.stale_after:
                 self.write_axis(now, loop, body, m, stale=True)
+            elif updated < oldest:
+                oldest = updated
+        self._oldest_fresh = min(self._oldest_fresh, oldest)
 
     # ------------------------------------------------------------------ origin
     # A controller reset (power cycle) restarts both counters at 0 wherever the axes stand:

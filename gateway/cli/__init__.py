@@ -121,7 +121,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
         return verify_main(words[2:])
     if words[:1] == ["serve"]:  # the debug switch RC233_TRACEMALLOC, before serve imports
-        from gateway.cli.heap_trace import install_from_env
+        from gateway.heap_trace import install_from_env
 
         install_from_env()
     light = bool(words) and (words[0] in LIGHT_COMMANDS or words[0] == "--version")

@@ -28,6 +28,7 @@ from gateway.bus.state import StateCache
 from gateway.engine.spec import LoopSpec
 from gateway.engine.wire import Channel, Kind, read_message
 from gateway.engine.worker import LineWorker
+from gateway.heap_trace import install_from_env
 from gateway.transport.base import Transport
 from gateway.transport.factory import open_transport
 
@@ -99,6 +100,8 @@ def main(open_lines: OpenLines = open_urls) -> None:
     logging.basicConfig(
         level=logging.INFO, format="%(asctime)s %(levelname)s %(name)s [worker]: %(message)s"
     )
+    # RC233_TRACEMALLOC, inherited from serve: the worker's heap is traced on its own
+    install_from_env(role="line worker")
     asyncio.run(run_worker(int(sys.argv[1]), int(sys.argv[2]), open_lines))
 
 

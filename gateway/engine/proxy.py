@@ -26,7 +26,14 @@ from typing import Any
 
 from gateway.bus.config import LoopConfig
 from gateway.bus.counters import CountersSnapshot
-from gateway.bus.events import BusEvent, EventBus, LinkDown, LinkUp, TransactionDone
+from gateway.bus.events import (
+    BusEvent,
+    EventBus,
+    LinkDown,
+    LinkUp,
+    TransactionDone,
+    TransactionsTallied,
+)
 from gateway.bus.lifecycle import LinkState
 from gateway.bus.requests import LoopDown, Priority, TransactionResult
 from gateway.bus.state_types import Change, ErrorKind
@@ -297,7 +304,7 @@ class WorkerClient:
             proxy.state, proxy.cause = LinkState(state), cause
             if isinstance(event, LinkDown):
                 proxy.retry_after = event.retry_after
-            elif isinstance(event, TransactionDone):
+            elif isinstance(event, TransactionDone | TransactionsTallied):
                 proxy.counters = event.counters
             self.mirror.relay(event)  # the followers first, as the cache of one process does
             proxy.events.publish(event)

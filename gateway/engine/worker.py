@@ -12,7 +12,9 @@ running, and a client that connects again gets a fresh snapshot.
 
 Reply events (``ReplyObserved``: one or more a poll) are relayed for every controller until
 the client says which it follows (``FOLLOW``: those an operation watches; the state reaches
-the client as changes), so that an idle poll crosses the channel as one ``TransactionDone``.
+the client as changes). Once it has, the poller's transactions of the controllers it does not
+follow cross in bulk (``Tally``: one ``TransactionsTallied`` a second, or sooner before any
+other event of the loop), so that an idle poll that changed nothing sends nothing at once.
 
 The time of each controller's and axis's latest reply follows every ``FRESH_SECONDS``
 (``FRESH``: those that moved), since a poll that changed nothing publishes no change; the
@@ -32,12 +34,19 @@ import logging
 from collections.abc import Callable, Mapping
 from typing import Any
 
-from gateway.bus.events import BusEvent, LinkDown, LinkUp, ReplyObserved
+from gateway.bus.events import (
+    BusEvent,
+    LinkDown,
+    LinkUp,
+    ReplyObserved,
+    TransactionDone,
+)
 from gateway.bus.poller import Poller
-from gateway.bus.requests import TransactionError
+from gateway.bus.requests import Priority, TransactionError
 from gateway.bus.scheduler import LoopScheduler
 from gateway.bus.state import StateCache
 from gateway.bus.trace import FrameDirection, TraceRecord
+from gateway.engine.tally import Tally
 from gateway.engine.wire import Channel, Kind, encode, encode_error, read_message
 
 __all__ = ["LineWorker"]
@@ -85,7 +94,9 @@ class LineWorker:
             self.state.changes.subscribe(lambda change: send((Kind.CHANGE, change)))
         ]
         for name, scheduler in self.schedulers.items():
-            unsubscribe.append(scheduler.events.subscribe(self._relay(name, scheduler, send)))
+            relay, tally = self._relay(name, scheduler, send)
+            unsubscribe.append(scheduler.events.subscribe(relay))
+            unsubscribe.append(tally.close)
             unsubscribe.append(_relay_trace(name, scheduler, send))
         stop_task = asyncio.create_task(self._read_stops(stop_reader, stop_writer))
         fresh_task = asyncio.create_task(self._send_fresh(send))
@@ -123,22 +134,34 @@ class LineWorker:
 
     def _relay(
         self, name: str, scheduler: LoopScheduler, send: Callable[[tuple[Any, ...]], None]
-    ) -> Callable[[BusEvent], None]:
-        def relay(event: BusEvent) -> None:
-            followed = self.followed
-            if (
-                followed is not None
-                and type(event) is ReplyObserved
-                and (event.loop, event.body) not in followed
-            ):
-                return  # what it taught crosses as changes; nobody there reads the reply
-            if isinstance(event, LinkUp | LinkDown):  # the line as (re)opened, before its news
-                send((Kind.LINE, name, scheduler.timing.baud, scheduler.transport.adapter))
+    ) -> tuple[Callable[[BusEvent], None], Tally]:
+        def tell(event: BusEvent) -> None:
             # the link as of the event: the client's proxy reads it without asking
             send((Kind.EVENT, name, event, scheduler.state.value, scheduler.cause,
                   scheduler.queue_depth))  # fmt: skip
 
-        return relay
+        tally = Tally(name, tell, scheduler.snapshot())
+
+        def relay(event: BusEvent) -> None:
+            followed = self.followed
+            if followed is not None:
+                if isinstance(event, ReplyObserved) and (event.loop, event.body) not in followed:
+                    return  # what it taught crosses as changes; nobody there reads the reply
+                if (
+                    isinstance(event, TransactionDone)
+                    and event.priority is Priority.POLL
+                    and (event.loop, event.body) not in followed
+                ):
+                    tally.add(event)  # figures only: they cross within the tally's period
+                    return
+            tally.flush()  # what ended before this event crosses before it
+            if isinstance(event, TransactionDone):
+                tally.seen(event)
+            if isinstance(event, LinkUp | LinkDown):  # the line as (re)opened, before its news
+                send((Kind.LINE, name, scheduler.timing.baud, scheduler.transport.adapter))
+            tell(event)
+
+        return relay, tally
 
     async def _send_fresh(self, send: Callable[[tuple[Any, ...]], None]) -> None:
         """Every ``FRESH_SECONDS``, the times of the latest replies that moved since the last

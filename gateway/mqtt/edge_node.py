@@ -41,7 +41,12 @@ from gateway.mqtt.session_guard import Backoff, DuplicateNode, PayloadBound, tak
 from gateway.mqtt.sparkplug import Message, Metric, Value, decode_commands, encode, topic
 from gateway.service.config import MqttSettings
 from gateway.service.events import EventKind, ServiceEvent
-from gateway.service.runtime.bus_types import BusEvent, Change, TransactionDone
+from gateway.service.runtime.bus_types import (
+    BusEvent,
+    Change,
+    TransactionDone,
+    TransactionsTallied,
+)
 from gateway.service.runtime.runtime import Runtime
 
 __all__ = ["EdgeNode"]
@@ -130,6 +135,9 @@ class EdgeNode:
     def _on_bus(self, event: BusEvent) -> None:
         if isinstance(event, TransactionDone):
             self.busy[event.loop] = self.busy.get(event.loop, 0.0) + event.duration
+        elif isinstance(event, TransactionsTallied):  # a worker's idle polls, in bulk
+            busy = sum(tally.duration for tally in event.tallies)
+            self.busy[event.loop] = self.busy.get(event.loop, 0.0) + busy
 
     def _measure(self, loop: str, when: float) -> None:
         """Line utilisation since the last counters update: measured busy over elapsed."""

@@ -7,7 +7,9 @@ closing may block in the serial library, so implementations do them off the even
 
 ``BufferedTransport`` is what the implementations share: per connection, a ``ReceiveBuffer``
 holds the bytes received and not read yet and, once the line is gone, the reason why, so that
-``read`` and ``write`` raise ``TransportClosed`` with that reason at once.
+``read`` and ``write`` raise ``TransportClosed`` with that reason at once. A reader that would
+only wait for every chunk anyway can have them handed to it as they arrive instead
+(``deliver``: called from the connection's ``data_received``, no task woken per chunk).
 """
 
 from __future__ import annotations
@@ -19,7 +21,7 @@ from collections.abc import Callable
 from gateway.errors import GatewayError
 from gateway.transport.usb_latency import AdapterReport
 
-__all__ = ["BufferedTransport", "ReceiveBuffer", "Transport", "TransportClosed"]
+__all__ = ["BufferedTransport", "ReceiveBuffer", "Sink", "Transport", "TransportClosed"]
 
 
 class TransportClosed(GatewayError):
@@ -65,6 +67,23 @@ class Transport(ABC):
     def discard_input(self) -> bytes:
         """Drop what was received and not read yet; return it (for the trace)."""
 
+    def deliver(self, sink: Sink | None) -> bool:
+        """Hand each chunk of the open connection to ``sink`` as it arrives instead of keeping
+        it for ``read`` (None: keep them again); False if this transport cannot."""
+        return False
+
+
+class Sink(ABC):
+    """Who takes a connection's chunks as they arrive (``Transport.deliver``)."""
+
+    @abstractmethod
+    def received(self, data: bytes) -> None:
+        """Bytes from the line (at least one), in the order they came."""
+
+    @abstractmethod
+    def closed(self, error: TransportClosed) -> None:
+        """The connection is gone (once), and why; nothing is received after it."""
+
 
 class ReceiveBuffer:
     """What one connection received and nobody read yet; closed once, with a reason.
@@ -79,6 +98,7 @@ class ReceiveBuffer:
         self._reason: str | None = None
         self._cause: BaseException | None = None
         self._changed = asyncio.Event()
+        self._sink: Sink | None = None
 
     @property
     def is_open(self) -> bool:
@@ -96,9 +116,24 @@ class ReceiveBuffer:
         error.__cause__ = self._cause
         return error
 
+    def deliver(self, sink: Sink | None) -> None:
+        """Hand chunks to ``sink`` from now on (what waits first); None: keep them again."""
+        self._sink = sink
+        if sink is None:
+            return
+        if self._data:
+            sink.received(self.discard())
+        if self._reason is not None:
+            self._sink = None
+            sink.closed(self.error())
+
     def feed(self, data: bytes) -> None:
         """Bytes from the line; ignored once the connection is closed."""
         if self._reason is None and data:
+            sink = self._sink
+            if sink is not None:
+                sink.received(data)
+                return
             self._data += data
             self._changed.set()
 
@@ -110,6 +145,9 @@ class ReceiveBuffer:
         if drop:
             self._data.clear()
         self._changed.set()
+        sink, self._sink = self._sink, None
+        if sink is not None:
+            sink.closed(self.error())
 
     def discard(self) -> bytes:
         """Take everything waiting, without waiting."""
@@ -198,6 +236,12 @@ class BufferedTransport(Transport):
     def discard_input(self) -> bytes:
         """Drop what was received and not read yet; return it (for the trace)."""
         return self._inbox.discard() if self._inbox is not None else b""
+
+    def deliver(self, sink: Sink | None) -> bool:
+        """Hand each chunk of the open connection to ``sink`` as it arrives (see ``Transport``);
+        ``TransportClosed`` if there is no connection."""
+        self._current().deliver(sink)
+        return True
 
     def _current(self) -> ReceiveBuffer:
         if self._inbox is None:

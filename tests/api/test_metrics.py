@@ -17,7 +17,7 @@ from gateway.api.problems import install_problem_handlers
 from gateway.api.security import AuthConfig, install_security
 from gateway.bus.config import LoopConfig
 from gateway.bus.counters import CountersSnapshot
-from gateway.bus.events import EventBus, TransactionDone
+from gateway.bus.events import EventBus, TransactionDone, TransactionsTallied, TransactionTally
 from gateway.bus.lifecycle import LinkState
 from gateway.bus.requests import Outcome, Priority
 from gateway.protocol.registry import parse
@@ -314,3 +314,32 @@ async def test_a_simulated_loop_counts_every_transaction():
     utilisation = value(fams, "rc233_loop_line_utilisation_ratio", loop=SIM_LOOP)
     assert 0 < utilisation <= 1
     assert value(fams, "rc233_loop_up", loop=SIM_LOOP) == 1
+
+
+def test_a_tally_of_polls_counts_as_the_transactions_it_stands_for():
+    # A line worker sends an idle loop's polls as one TransactionsTallied a second.
+    figures = [(0.004, Priority.POLL, Outcome.DONE), (0.03, Priority.POLL, Outcome.DONE),
+               (0.3, Priority.POLL, Outcome.UNKNOWN)]  # fmt: skip
+    one_by_one, clock = fake_gateway()
+    metrics_one = Metrics(one_by_one)
+    for seconds, priority, outcome in figures:
+        one_by_one.schedulers["main"].events.publish(done("main", seconds, priority, outcome))
+    tallied, _ = fake_gateway()
+    metrics_tallied = Metrics(tallied)
+    rows = tuple(
+        TransactionTally("1", priority, outcome, seconds, 1, 0, 0)
+        for seconds, priority, outcome in figures
+    )
+    tallied.schedulers["main"].events.publish(
+        TransactionsTallied(loop="main", tallies=rows, counters=CountersSnapshot())
+    )
+    clock.now = 110.0
+    watched = ("rc233_loop_transaction_duration_seconds", "rc233_loop_transactions_total",
+               "rc233_loop_busy_seconds_total")  # fmt: skip
+    one = parse_exposition(metrics_one.render())
+    many = parse_exposition(metrics_tallied.render())
+    for name in watched:
+        assert many[name].samples == one[name].samples, name
+    assert value(many, "rc233_loop_transactions_total", loop="main", outcome="done") == 2
+    poll = {"loop": "main", "priority": "poll"}
+    assert value(many, "rc233_loop_transaction_duration_seconds_count", **poll) == 3

@@ -12,7 +12,8 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import socket
-from collections.abc import AsyncIterator, Awaitable, Callable
+from collections.abc import AsyncIterator, Awaitable
+from typing import Protocol
 
 import pytest
 
@@ -58,7 +59,10 @@ class Linked:
             await asyncio.wait_for(self.served, 5.0)
 
 
-Attach = Callable[[Bus], Awaitable[Linked]]
+class Attach(Protocol):
+    """``await attach(bus)``, or with the poller's periods (``poll``) of the test's own."""
+
+    def __call__(self, bus: Bus, poll: PollConfig | None = None) -> Awaitable[Linked]: ...
 
 
 @pytest.fixture
@@ -66,9 +70,9 @@ async def attach() -> AsyncIterator[Attach]:
     """``await attach(bus)``: the bus's scheduler served by a worker, with a synced client."""
     made: list[Linked] = []
 
-    async def make(bus: Bus) -> Linked:
+    async def make(bus: Bus, poll: PollConfig | None = None) -> Linked:
         state = bus.scheduler.state_cache
-        poller = attach_poller(bus.scheduler, state, ["1"], PollConfig())
+        poller = attach_poller(bus.scheduler, state, ["1"], poll or PollConfig())
         worker = LineWorker(
             {bus.scheduler.name: bus.scheduler}, state, {bus.scheduler.name: poller}
         )

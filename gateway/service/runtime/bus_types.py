@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from gateway.bus.config import LoopConfig
 from gateway.bus.counters import CountersSnapshot
-from gateway.bus.events import BusEvent, EventBus, TransactionDone
+from gateway.bus.events import BusEvent, EventBus, TransactionDone, TransactionsTallied
 from gateway.bus.requests import DeadlineExpired, LoopDown, TransactionError
 from gateway.bus.scheduler import LinkState
 from gateway.bus.state import StateCache
@@ -27,4 +27,5 @@ __all__ = [
     "StateCache",
     "TransactionDone",
     "TransactionError",
+    "TransactionsTallied",
 ]

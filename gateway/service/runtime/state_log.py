@@ -23,7 +23,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from gateway.bus.counters import CountersSnapshot
-from gateway.bus.events import BusEvent, LinkDown, LinkUp, TransactionDone
+from gateway.bus.events import BusEvent, LinkDown, LinkUp, TransactionDone, TransactionsTallied
 from gateway.bus.state_types import Change
 from gateway.service.runtime.runtime import Runtime
 
@@ -96,7 +96,7 @@ class StateLog:
                 log.info("loop %s up", event.loop, extra=extra)
             loop.seen_up = True
             loop.down_since = None
-        elif isinstance(event, TransactionDone):
+        elif isinstance(event, TransactionDone | TransactionsTallied):
             self._summarise(event.loop, loop, event.counters)
 
     def _summarise(self, name: str, loop: _LoopLog, counters: CountersSnapshot) -> None:

@@ -4,10 +4,11 @@ With the variable set (to the number of frames a traceback keeps, ``1`` meaning 
 25), the process starts ``tracemalloc`` before anything else is imported, takes a first
 snapshot, and on every ``SIGUSR2`` (and once at exit) writes the lines that allocated most
 since the previous snapshot, largest growth first, to ``RC233_TRACEMALLOC_OUT`` (a file it
-appends to) or standard error::
+appends to) or standard error. ``serve`` and its line workers (which inherit the variable) each
+trace their own heap; every dump names its process (role and PID), so one file holds them all::
 
     RC233_TRACEMALLOC=1 rc233-gateway serve --config cell.toml &
-    kill -USR2 $!        # some minutes later, again: each dump is the growth since the last
+    pkill -USR2 -g $(ps -o pgid= $!)   # some minutes later, again: the growth since the last
 
 Tracing costs CPU and memory (some 30 % more of both): a diagnostic run, never on site.
 Taking a snapshot blocks the process for a moment (tens of milliseconds): the handler runs on
@@ -34,8 +35,9 @@ TOP = 25  # lines a dump shows
 class HeapTracer:
     """Snapshots of the traced heap; each ``dump`` writes the growth since the previous one."""
 
-    def __init__(self, out: str | None, frames: int = 1) -> None:
+    def __init__(self, out: str | None, frames: int = 1, role: str = "serve") -> None:
         self._out = out
+        self._role = role
         if not tracemalloc.is_tracing():
             tracemalloc.start(frames)
         self._started = time.monotonic()
@@ -60,7 +62,8 @@ class HeapTracer:
         self._count += 1
         traced, peak = tracemalloc.get_traced_memory()
         lines = [
-            f"--- heap dump {self._count} at {time.monotonic() - self._started:.0f} s: "
+            f"--- heap dump {self._count} of {self._role} (pid {os.getpid()}) at "
+            f"{time.monotonic() - self._started:.0f} s: "
             f"traced {traced / 1e6:.1f} MB (peak {peak / 1e6:.1f} MB), top growth since the "
             "previous dump"
         ]
@@ -82,8 +85,11 @@ class HeapTracer:
         self.dump()
 
 
-def install_from_env(environ: dict[str, str] | None = None) -> HeapTracer | None:
-    """Start tracing when ``RC233_TRACEMALLOC`` asks for it; ``None`` when it does not."""
+def install_from_env(
+    environ: dict[str, str] | None = None, role: str = "serve"
+) -> HeapTracer | None:
+    """Start tracing ``role``'s process when ``RC233_TRACEMALLOC`` asks for it; ``None`` when
+    it does not."""
     env = os.environ if environ is None else environ
     setting = env.get(ENV, "").strip()
     if setting in ("", "0"):
@@ -92,8 +98,7 @@ def install_from_env(environ: dict[str, str] | None = None) -> HeapTracer | None
         frames = min(max(int(setting), 1), 25)
     except ValueError:
         raise SystemExit(f"{ENV} must be a number of frames (1-25), not {setting!r}") from None
-    tracer = HeapTracer(env.get(ENV_OUT) or None, frames)
+    tracer = HeapTracer(env.get(ENV_OUT) or None, frames, role)
     signal.signal(signal.SIGUSR2, tracer.on_signal)
     atexit.register(tracer.dump)
     return tracer
-
