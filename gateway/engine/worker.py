@@ -55,7 +55,7 @@ log = logging.getLogger("gateway.engine")
 
 #: Real seconds between two sendings of the replies' times (``FRESH``): a reading's age as
 #: the API process tells it is at most this late.
-FRESH_SECONDS = 0.5
+FRESH_SECONDS = 1.0
 
 
 class LineWorker:
