@@ -124,6 +124,19 @@ def test_soft_limits_in_order_and_finite(
     assert "soft_min 5.0 must be below soft_max 5.0" in out, out
 
 
+def test_the_watched_spacing_of_the_idle_reads_is_never_closer_than_their_period(
+    tmp_path: Path, tty: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = tmp_path / "cell.toml"
+    section = "[loops.poll]\nidle_period = 2.0\nwatched_idle_period = 1.0\n"
+    path.write_text(LOOP.format(name="main", port=tty) + section)
+    code, out = checked(path, capsys)
+    assert code == 1, out
+    found = problems_of(out)
+    assert list(found) == ["loops[0].poll"], out
+    assert "watched_idle_period 1.0: at least idle_period (2.0)" in found["loops[0].poll"], out
+
+
 # ------------------------------------------------------------------ one loop a line
 
 

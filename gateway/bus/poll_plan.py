@@ -26,10 +26,12 @@ allows, between these jobs.
 What the controller does (moving, answering) is never kept here: the poller reads it from the
 state cache, the one home of that knowledge, and hands it to ``schedule``.
 
-While the loop's position stream reads a moving axis (``watching``), the line goes to it: an
-idle controller's status is read every ``watched_idle_period`` (2 s) rather than every
-``idle_period``, and the slow jobs (sensors, conditions, positions) of every controller come
-``watched_slow_factor`` (3) times further apart. Two bounds hold it: the spaced status read
+While the loop's position stream reads a moving axis (``watching``), the line goes to it: the
+slow jobs (sensors, conditions, positions) of every controller come ``watched_slow_factor``
+(3) times further apart, and an idle controller's status is read every
+``watched_idle_period`` (by default ``idle_period``, 1 s: an EMS or a program's motion on a
+controller that stands is seen as soon as when nothing moves; a site may space it). Two bounds
+hold a spaced status read: the spaced status read
 stays within two thirds of the state cache's ``stale_after`` (host seconds: 3 s, so 2 s), so
 an axis never turns stale because the plan spaced its reads; and after a poll nobody answered
 the next comes at ``idle_period`` again, so a controller gone silent is offline within
@@ -97,8 +99,9 @@ class PollConfig:
     #: polls in a row without any answer before a controller is marked offline
     offline_after: int = 2
     #: an idle controller's status while the loop's position stream reads a moving axis (never
-    #: below ``idle_period``, never above two thirds of the state cache's ``stale_after``)
-    watched_idle_period: float = 2.0
+    #: below ``idle_period``, never above two thirds of the state cache's ``stale_after``);
+    #: not spaced by default: that read is where an EMS or a program's motion shows
+    watched_idle_period: float = 1.0
     #: sensors, conditions and positions this many times further apart while an axis is
     #: watched (never closer than without)
     watched_slow_factor: float = 3.0

@@ -129,6 +129,25 @@ class PollSettings(Strict):
     idle_period: float = Field(_default(PollConfig, "idle_period"), gt=0, le=600)
     sensor_period: float = Field(_default(PollConfig, "sensor_period"), gt=0, le=3600)
     condition_period: float = Field(_default(PollConfig, "condition_period"), gt=0, le=3600)
+    #: while an axis is watched: an idle controller's status (1 s by default, as when nothing
+    #: moves: an EMS or a program's motion on it is seen as soon; longer gives the watched
+    #: axis more reads, and the state cache caps it at two thirds of its stale time)
+    watched_idle_period: float = Field(_default(PollConfig, "watched_idle_period"), gt=0, le=600)
+    #: while an axis is watched: the sensors, conditions and positions this many times apart
+    watched_slow_factor: float = Field(_default(PollConfig, "watched_slow_factor"), ge=1, le=100)
+
+    @model_validator(mode="after")
+    def _spaced_not_closer(self) -> Self:
+        # Left out, it follows idle_period (never closer: PollPlan.idle_step); set, it must say
+        # something that can be done.
+        if "watched_idle_period" in self.model_fields_set and (
+            self.watched_idle_period < self.idle_period
+        ):
+            raise ValueError(
+                f"watched_idle_period {self.watched_idle_period}: at least idle_period "
+                f"({self.idle_period}); it spaces the idle reads while an axis is watched"
+            )
+        return self
 
 
 class LoopSettings(Strict):

@@ -1,10 +1,11 @@
 """The line while an axis is watched: spent on it, with the idle controllers still honest.
 
-While a moving axis's position is read back to back, the idle controllers' status reads come
-2 s apart (``watched_idle_period``) rather than 1 s, and their slow jobs three times further
-apart; never so far that an axis turns stale (3 s, ``StateCache.stale_after``), an EMS on
-a controller that stands is seen within 2 s, and a controller that goes silent meanwhile is
-still reported offline within ``watched_idle_period`` + ``idle_period`` and the polls'
+While a moving axis's position is read back to back, the slow jobs of every controller come
+three times further apart (``watched_slow_factor``), and the idle controllers' status reads
+stay 1 s apart unless the site spaces them (``watched_idle_period``, here 2 s as a site may set
+it); never so far that an axis turns stale (3 s, ``StateCache.stale_after``), an EMS on a
+controller that stands is seen within that period, and a controller that goes silent meanwhile
+is still reported offline within ``watched_idle_period`` + ``idle_period`` and the polls'
 time-outs. Real time (9600 bps, 1 ms
 turnaround): the line's own speed is what is measured, in the simulator's seconds.
 """
@@ -22,9 +23,9 @@ from gateway.bus.state import Change, StateCache
 from tests.bus.poll_rig import ALL_BODIES, LOOP, SKIPPED, Rig, close_rigs, move, start_rig
 
 DEFAULTS = PollConfig()
-#: an idle controller's status reads while an axis is watched: 2 s apart, and never as far
-#: as the 3 s after which the state cache shows its axes stale (two thirds of it)
-SPACED = DEFAULTS.watched_idle_period
+#: an idle controller's status reads while an axis is watched, as a site may space them: 2 s
+#: apart, and never as far as the 3 s after which the state cache shows its axes stale
+SPACED = 2.0
 #: device seconds a poll may start late on the line (it waits behind a position read) and
 #: this host may add (the real-time tests run beside other work)
 LATE = 0.25
@@ -52,7 +53,7 @@ def status_times(r: Rig, body: str, start: float, end: float) -> list[float]:
 async def test_a_watched_axis_takes_the_line_from_the_idle_controllers(
     rig: Callable[..., Rig],
 ) -> None:
-    r = await rig("123")
+    r = await rig("123", watched_idle_period=SPACED)
     await r.identified("123")
     # 40,000 pulses at the default 5,000 pps (OH 5000, §16): about 8 simulated seconds.
     await move(r, "1", 1, 40000)
@@ -90,7 +91,7 @@ async def test_a_watched_axis_takes_the_line_from_the_idle_controllers(
 async def test_idle_controllers_stay_fresh_and_a_silent_one_goes_offline_in_time(
     rig: Callable[..., Rig],
 ) -> None:
-    r = await rig("123")
+    r = await rig("123", watched_idle_period=SPACED)
     await r.identified("123")
     stale: list[Change] = []
     r.state.changes.subscribe(
@@ -124,7 +125,7 @@ async def test_idle_controllers_stay_fresh_and_a_silent_one_goes_offline_in_time
 async def test_among_15_controllers_the_watched_axis_gets_most_of_the_line(
     rig: Callable[..., Rig],
 ) -> None:
-    r = await rig(ALL_BODIES)
+    r = await rig(ALL_BODIES, watched_idle_period=SPACED)
     await r.identified(ALL_BODIES)
     await move(r, "7", 1, 40000)  # about 8 simulated seconds
     await r.until(lambda: r.state.controller(LOOP, "7").selection_confirmed)
@@ -145,3 +146,27 @@ async def test_among_15_controllers_the_watched_axis_gets_most_of_the_line(
         gaps = [b - a for a, b in pairwise(reads)]
         assert gaps and max(gaps) < SPACED + LATE, (body, gaps)
     assert not any(r.state.axis(LOOP, b, m).stale for b in ALL_BODIES for m in (1, 2))
+
+
+async def test_by_default_an_idle_controller_is_read_every_second_while_an_axis_is_watched(
+    rig: Callable[..., Rig],
+) -> None:
+    r = await rig("123")
+    await r.identified("123")
+    await move(r, "1", 1, 60000)  # about 12 simulated seconds
+    await r.until(lambda: r.state.controller(LOOP, "1").selection_confirmed)
+    start = r.sim.now() + DEFAULTS.idle_period
+    end = start + 10.0
+    await r.sim_time(end)
+    assert r.state.axis(LOOP, "1", 1).moving
+    # An EMS or a program's motion on a controller that stands is seen as soon as when
+    # nothing moves: its status stays at ``idle_period``.
+    for body in "23":
+        gaps = [b - a for a, b in pairwise(status_times(r, body, start, end))]
+        assert gaps and max(gaps) < DEFAULTS.idle_period + LATE, (body, gaps)
+    # The slow jobs are spaced: an idle controller's sensors (``CLM1``, every 5 s when
+    # nothing is watched: twice at least in these 10 s) at most once, 15 s apart.
+    for body in "23":
+        asked = f"${body}CLM1\r".encode()
+        sensors = [f.time for f in r.frames_in(start, end) if f.data == asked]
+        assert len(sensors) <= 1, (body, sensors)
