@@ -134,6 +134,18 @@ class StateCache:
         """The controllers of ``loop`` the cache knows, in body order."""
         return sorted(b for (name, b) in self._ctls if name == loop)
 
+    def latest_updates(self) -> dict[tuple[str, str] | tuple[str, str, int], float]:
+        """Every controller's and axis's ``updated`` (the time of its latest reply, also of
+        the replies that changed nothing else and so published nothing), by its key:
+        (loop, body) or (loop, body, motor). Read without copying any record."""
+        out: dict[tuple[str, str] | tuple[str, str, int], float] = {}
+        for store in (self._ctls, self._axes):
+            for key, record in store.items():
+                updated = self._fresh.get(key, record.updated)
+                if updated is not None:
+                    out[key] = updated
+        return out
+
     def snapshot(self) -> Snapshot:
         """Everything, as of change ``seq`` (a later change has a higher number)."""
         for key in list(self._fresh):

@@ -1,14 +1,14 @@
 """``rc233-gateway serve``: the REST/WebSocket API on the loops of a configuration file.
 
 ``serve --config cell.toml`` runs the loops the file describes, once every problem
-``rc233-gateway check-config`` finds in it is fixed, each in a line worker process (grouped
-by ``[engine] workers``; a worker that dies is started again, its loops down meanwhile); a
-loop whose device is not there (yet) starts down and comes up when it appears.
-``serve --simulate`` runs in-process simulated loops (``simulated_lines``): without a file
-one loop (``sim``) with three controllers whose axes are named
-(gateway/service/simulated.py); with ``--config`` the file's loops, controllers, names, units,
-tokens and audit log, each loop's port replaced by a simulated loop (9600 bps). Either takes
-the simulator's options. A configuration can equally point a loop at ``rc233-gateway sim
+``rc233-gateway check-config`` finds in it is fixed, each in a line worker process (grouped by
+``[engine] workers``; a worker that dies is started again, its loops down meanwhile); a loop
+whose device is not there (yet) starts down and comes up when it appears. ``serve --simulate``
+runs simulated loops (``simulated_lines``) through the same line workers, each worker holding
+its loops' simulators: without a file one loop (``sim``) with three controllers whose axes are
+named (gateway/service/simulated.py); with ``--config`` the file's loops, controllers, names,
+units, tokens and audit log, each loop's port replaced by a simulated loop (9600 bps). Either
+takes the simulator's options. A configuration can equally point a loop at ``rc233-gateway sim
 --pty`` or ``--tcp`` through its device path or ``socket://`` URL: the path a real site uses.
 
 Authentication, one rule: every request needs a token of the configuration unless the API is
@@ -39,7 +39,7 @@ from gateway.cli.check_config import NO_TOKENS, check_report, problems_error
 from gateway.cli.connection_guard import uvicorn_connection_options
 from gateway.cli.logs import configure_logging
 from gateway.cli.notify import notify
-from gateway.cli.simulated_lines import sim_line, simulated_lines
+from gateway.cli.simulated_lines import SimulatedCell, sim_line, simulated_lines
 from gateway.mqtt.commands import DeviceCommands
 from gateway.mqtt.edge_node import EdgeNode
 from gateway.opcua.face import OpcUaFace
@@ -53,8 +53,6 @@ from gateway.sim.cli import (
     parse_bodies,
     positive,
 )
-from gateway.sim.control import Controls, serve_control
-from gateway.sim.loop import SimLoop
 from gateway.sim.scene import SceneError
 from gateway.transport.base import Transport
 from gateway.transport.factory import open_transport
@@ -115,7 +113,7 @@ def add_serve_parser(subparsers: Any) -> argparse.ArgumentParser:
     serve.add_argument(
         "--simulate",
         action="store_true",
-        help="in-process simulated loops (the --config file's, or one loop `sim`)",
+        help="simulated loops, in the line workers (the --config file's, or one loop `sim`)",
     )
     serve.add_argument("--host", default=DEFAULT_HOST, help=f"default {DEFAULT_HOST}")
     serve.add_argument("--port", type=int, default=DEFAULT_PORT, help=f"default {DEFAULT_PORT}")
@@ -139,7 +137,7 @@ def add_serve_parser(subparsers: Any) -> argparse.ArgumentParser:
         "--control",
         type=host_port,
         metavar="HOST:PORT",
-        help="control surface (of the first loop)",
+        help="control surface (of the first loop; served by its line worker)",
     )
     serve.add_argument("-v", "--verbose", action="store_true", help="debug logging")
     serve.add_argument(
@@ -224,26 +222,30 @@ def _configured(args: argparse.Namespace) -> GatewayConfig | None:
 
 async def serve(args: argparse.Namespace) -> int:
     """Run the API until SIGINT/SIGTERM; the exit code."""
-    sims: list[SimLoop] = []
-    # None: every loop in a line worker process, which opens its port itself
-    transports: dict[str, Transport] | None = None
+    # None: every loop's worker opens its port; else each worker builds its simulators
+    cell: SimulatedCell | None = None
     config = _configured(args)
     if args.simulate:
-        config, sims, transports = simulated_lines(args, config)
+        cell = simulated_lines(args, config)
+        config = cell.config
     assert config is not None
-    auth = _auth(args, config)
-    state_dir, scratch = _state_dir(config, simulated=args.simulate)
     try:
-        store = await StateStore.open(state_dir)
-    except BaseException:
-        if scratch:
-            shutil.rmtree(state_dir, ignore_errors=True)
-        raise
-    try:
-        return await _serve(args, config, sims, transports, auth, store)
+        auth = _auth(args, config)
+        state_dir, scratch = _state_dir(config, simulated=args.simulate)
+        try:
+            store = await StateStore.open(state_dir)
+        except BaseException:
+            if scratch:
+                shutil.rmtree(state_dir, ignore_errors=True)
+            raise
+        try:
+            return await _serve(args, config, cell, auth, store)
+        finally:
+            if scratch:
+                shutil.rmtree(state_dir, ignore_errors=True)
     finally:
-        if scratch:
-            shutil.rmtree(state_dir, ignore_errors=True)
+        if cell is not None:
+            cell.close()
 
 
 def _state_dir(config: GatewayConfig, *, simulated: bool) -> tuple[Path, bool]:
@@ -260,19 +262,16 @@ def _state_dir(config: GatewayConfig, *, simulated: bool) -> tuple[Path, bool]:
 async def _serve(
     args: argparse.Namespace,
     config: GatewayConfig,
-    sims: list[SimLoop],
-    transports: dict[str, Transport] | None,
+    cell: SimulatedCell | None,
     auth: AuthConfig,
     store: StateStore,
 ) -> int:
-    """Run the API on ``transports`` (None: the loops in line workers) with the opened state
-    ``store`` until a signal."""
-    gateway = Runtime(config, transports=transports, time_scale=args.time_scale, store=store)
+    """Run the API on the loops of ``config`` in line workers (``cell``: simulated loops,
+    each built by its worker) with the opened state ``store`` until a signal."""
+    lines = None if cell is None else cell.lines
+    gateway = Runtime(config, time_scale=args.time_scale, store=store, worker_lines=lines)
     StateLog(gateway).start()
     app = create_app(gateway, auth=auth)
-    control: asyncio.Server | None = None
-    if sims and args.control:
-        control = await serve_control(Controls(sims[0]), *args.control)
     if auth.no_auth:
         log.warning(
             "AUTHENTICATION IS OFF: anyone who can reach http://%s:%d may move the machines "
@@ -298,8 +297,8 @@ async def _serve(
     print(
         f"rc233-gateway serve: dashboard http://{args.host}:{args.port}/ "
         f"API http://{args.host}:{args.port}/api/v1 loops {loops}"
-        + (" [simulated]" if sims else "")
-        + (f" line workers {workers_text(gateway)}" if gateway.workers is not None else "")
+        + (" [simulated]" if cell is not None else "")
+        + f" line workers {workers_text(gateway)}"
         + f" state {store.directory}",
         flush=True,
     )
@@ -319,10 +318,6 @@ async def _serve(
             node_task.cancel()
             await asyncio.gather(node_task, return_exceptions=True)
             edge_node.close()
-        if control is not None:
-            control.close()
-        for sim in sims:
-            sim.close()
     return 0
 
 

@@ -186,6 +186,21 @@ class StateMirror(StateCache):
                     out[name] = True
         return out
 
+    def freshen(self, times: Mapping[Any, float]) -> None:
+        """Move the ``updated`` of controllers and axes (keys as ``latest_updates``) forward,
+        silently: the worker's replies that changed nothing else, which its cache keeps
+        without publishing. A view's ``updated`` and age are then the worker's, as in one
+        process."""
+        for key, updated in times.items():
+            store: dict[Any, Any] = self._axes if len(key) == 3 else self._ctls
+            record = store.get(key)
+            if record is None:
+                continue
+            known = self._fresh.get(key, record.updated)
+            if known is None or known < updated:
+                self._fresh.pop(key, None)
+                store[key] = replace(record, updated=updated)
+
     def _replace(
         self,
         store: dict[Any, Any],

@@ -313,6 +313,8 @@ class WorkerClient:
             line.baud, line.adapter = message[2], message[3]
         elif kind == Kind.TRACED:
             self.proxies[message[1]].trace.take(message[2])
+        elif kind == Kind.FRESH:
+            self.mirror.freshen(message[1])
         elif kind in (Kind.RESULT, Kind.ERROR):
             entry = self._waiting.pop(message[1], None)
             if entry is not None and not entry[1].done():

@@ -1,12 +1,13 @@
 """The API process's side of a worker process: start it, watch it, start it again.
 
-``WorkerSupervisor(client, specs)`` starts ``python -m gateway.engine.process`` with two
-fresh socketpairs, sends it the loops to run and attaches ``client`` to the channels. When
-the process ends without being asked to, the worker's loops are down with the cause (how it
-ended, when it comes back: ``LoopDown`` and its ``retry_after`` for every request meanwhile,
-a ``LinkDown`` event, a log line) and a new process is started after a back-off that doubles
-up to ``BACKOFF[-1]`` and starts over once a worker has lived ``STEADY_SECONDS``. The other
-workers and the API process go on.
+``WorkerSupervisor(client, specs)`` starts ``python -m gateway.engine.process`` (or the
+``program`` given: its module, and the descriptors it inherits) with two fresh socketpairs,
+sends it the loops to run and attaches ``client`` to the channels. When the process ends
+without being asked to, the worker's loops are down with the cause (how it ended, when it comes
+back: ``LoopDown`` and its ``retry_after`` for every request meanwhile, a ``LinkDown`` event, a
+log line) and a new process is started after a back-off that doubles up to ``BACKOFF[-1]`` and
+starts over once a worker has lived ``STEADY_SECONDS``. The other workers and the API process
+go on.
 
 ``close()`` closes the channels: the worker lets the transaction in flight finish, closes
 its lines and exits; one that does not within ``drain`` seconds is killed.
@@ -24,7 +25,7 @@ import time
 from collections.abc import Sequence
 
 from gateway.engine.proxy import WorkerClient
-from gateway.engine.spec import LoopSpec
+from gateway.engine.spec import LoopSpec, WorkerProgram
 from gateway.engine.wire import Channel, Kind, encode
 
 __all__ = ["BACKOFF", "WorkerSupervisor", "exit_cause"]
@@ -55,8 +56,11 @@ class WorkerSupervisor:
         specs: Sequence[LoopSpec],
         *,
         backoff: Sequence[float] = BACKOFF,
+        program: WorkerProgram | None = None,
     ) -> None:
         self.client = client
+        #: what the process runs (a new process, after a death, the same)
+        self.program = program if program is not None else WorkerProgram()
         self.specs = list(specs)
         self.backoff = tuple(backoff)
         #: how many times the worker died and was started again
@@ -113,9 +117,9 @@ class WorkerSupervisor:
         theirs = [pair[1] for pair in pairs]
         try:
             self.process = await asyncio.create_subprocess_exec(
-                sys.executable, "-m", "gateway.engine.process",
+                sys.executable, "-m", self.program.module,
                 *(str(s.fileno()) for s in theirs),
-                pass_fds=[s.fileno() for s in theirs],
+                pass_fds=[*(s.fileno() for s in theirs), *self.program.pass_fds],
             )  # fmt: skip
         finally:
             for sock in theirs:

@@ -142,6 +142,7 @@ class Kind(StrEnum):
     EVENT = "event"  # worker: (EVENT, loop, BusEvent, LinkState, cause)
     RESULT = "result"  # worker: (RESULT, rid, TransactionResult)
     ERROR = "error"  # worker: (ERROR, rid, encoded error)
+    FRESH = "fresh"  # worker: (FRESH, {key: updated}) replies that changed nothing else
 
 
 def encode(message: tuple[Any, ...]) -> bytes:

@@ -16,6 +16,10 @@ the client as changes). Once it has, the poller's transactions of the controller
 follow cross in bulk (``Tally``: one ``TransactionsTallied`` a second, or sooner before any
 other event of the loop), so that an idle poll that changed nothing sends nothing at once.
 
+The time of each controller's and axis's latest reply follows every ``FRESH_SECONDS``
+(``FRESH``: those that moved), since a poll that changed nothing publishes no change; the
+mirror moves its records' ``updated`` silently, so a reading's age is the worker's.
+
 The rest of what the API process reads of a scheduler follows it too: the line's rate and
 adapter report with every link event (``LINE``, before the event), the trace's records while
 the client has it switched on (``TRACED``), and the client's acknowledges of latched errors
@@ -48,6 +52,10 @@ from gateway.engine.wire import Channel, Kind, encode, encode_error, read_messag
 __all__ = ["LineWorker"]
 
 log = logging.getLogger("gateway.engine")
+
+#: Real seconds between two sendings of the replies' times (``FRESH``): a reading's age as
+#: the API process tells it is at most this late.
+FRESH_SECONDS = 1.0
 
 
 class LineWorker:
@@ -91,6 +99,7 @@ class LineWorker:
             unsubscribe.append(tally.close)
             unsubscribe.append(_relay_trace(name, scheduler, send))
         stop_task = asyncio.create_task(self._read_stops(stop_reader, stop_writer))
+        fresh_task = asyncio.create_task(self._send_fresh(send))
         try:
             while (message := await read_message(reader)) is not None:
                 if message[0] == Kind.RESYNC:
@@ -113,8 +122,11 @@ class LineWorker:
             for undo in unsubscribe:
                 undo()
             stop_task.cancel()
+            fresh_task.cancel()
             with contextlib.suppress(asyncio.CancelledError):
                 await stop_task
+            with contextlib.suppress(asyncio.CancelledError):
+                await fresh_task
             for task in list(self._tasks):
                 task.cancel()
             writer.close()
@@ -150,6 +162,19 @@ class LineWorker:
             tell(event)
 
         return relay, tally
+
+    async def _send_fresh(self, send: Callable[[tuple[Any, ...]], None]) -> None:
+        """Every ``FRESH_SECONDS``, the times of the latest replies that moved since the last
+        sending (``FRESH``): a poll that changes nothing publishes nothing, and yet the
+        client's views must say how old their reading is (``updated``, the ``Age`` header,
+        a metric's timestamp) as the cache of one process does, to within that period."""
+        sent: dict[Any, float] = {}
+        while True:
+            await asyncio.sleep(FRESH_SECONDS)
+            moved = {k: t for k, t in self.state.latest_updates().items() if sent.get(k) != t}
+            if moved:
+                sent.update(moved)
+                send((Kind.FRESH, moved))
 
     async def _read_stops(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
         def send(message: tuple[Any, ...]) -> None:

@@ -52,6 +52,7 @@ from __future__ import annotations
 import asyncio
 import json
 import logging
+import socket
 from collections.abc import Callable
 from typing import Any
 
@@ -293,5 +294,18 @@ async def serve_control(controls: Controls, host: str, port: int) -> asyncio.Ser
         await _client(controls, reader, writer)
 
     server = await asyncio.start_server(client, host, port)
+    log.info("control surface on %s:%d", host, port)
+    return server
+
+
+async def serve_control_on(controls: Controls, sock: socket.socket) -> asyncio.Server:
+    """Serve the control surface on a socket already listening (bound by another process,
+    which keeps the port while this one comes and goes)."""
+
+    async def client(reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+        await _client(controls, reader, writer)
+
+    server = await asyncio.start_server(client, sock=sock)
+    host, port = sock.getsockname()[:2]
     log.info("control surface on %s:%d", host, port)
     return server

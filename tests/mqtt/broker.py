@@ -214,6 +214,17 @@ class Central:
                 self._new.clear()
                 await self._new.wait()
 
+    async def identified(self, node: str, device: str) -> None:
+        """Until the controller ``device`` of ``node`` is identified (its mode read): in its
+        birth when it was read before, else in a DDATA after the birth (a line worker may
+        read it either side of the birth)."""
+        birth = await self.wait_for("DBIRTH", node=node, device=device)
+        if birth.values.get("Mode") is None:
+            await self.wait_for(
+                "DDATA", node=node, device=device,
+                where=lambda m: m.values.get("Mode") is not None,
+            )  # fmt: skip
+
     def mark(self) -> int:
         """The index of the next message (for ``since``)."""
         return len(self.messages)

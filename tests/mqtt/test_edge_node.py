@@ -56,7 +56,7 @@ async def test_births_carry_every_metric_and_ddata_follows_a_move(
         await central.wait_for(
             "DDATA", device="gantry", where=lambda m: m.values.get("Axis/x/Position") == 0
         )
-        await central.wait_for("DDATA", device="handler", where=lambda m: "Mode" in m.values)
+        await central.identified("cell1", "handler")
         start = central.mark()
         await cell.move("x", 20000)
         moving = await central.wait_for(

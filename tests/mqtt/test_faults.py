@@ -13,9 +13,7 @@ DEVICES = ("gantry", "head", "handler")
 async def _ready(central: Central, node: str) -> None:
     """Every controller born and identified (its mode read)."""
     for device in DEVICES:
-        await central.wait_for(
-            "DDATA", node=node, device=device, where=lambda m: "Mode" in m.values
-        )
+        await central.identified(node, device)
 
 
 async def test_ems_on_the_simulator_shows_as_a_latched_error_metric(

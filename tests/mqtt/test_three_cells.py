@@ -11,15 +11,37 @@ one clock). It prints both (docs/multi-cell.md quotes them).
 from __future__ import annotations
 
 import asyncio
+import json
 import statistics
 from pathlib import Path
 
-from tests.mqtt.broker import Broker, Cell, Central, seqs_in_order
+import httpx
+from websockets.asyncio.client import connect
+
+from tests.mqtt.broker import WAIT, Broker, Cell, Central, seqs_in_order
 
 CELLS = ("cell-a", "cell-b", "cell-c")
 DEVICES = {"gantry": ("x", "y"), "head": ("z", "theta"), "handler": ("gripper", "conveyor")}
 MOVING = ("x", "z", "gripper")
 TARGET = 8000
+FINAL = ("done", "failed", "unknown")
+
+
+async def _operation_over(cell: Cell, axis: str) -> None:
+    """Until the newest operation of ``axis`` has ended (its WebSocket event, or already)."""
+    base = f"127.0.0.1:{cell.http}/api/v1"
+    async with connect(f"ws://{base}/ws", open_timeout=WAIT) as ws, asyncio.timeout(WAIT):
+        await ws.send(json.dumps({"type": "subscribe", "topics": ["event:operation"]}))
+        while json.loads(await ws.recv()).get("type") not in ("snapshot", "subscribed"):
+            pass
+        async with httpx.AsyncClient() as client:
+            newest = (await client.get(f"http://{base}/operations?axis={axis}&limit=1")).json()
+        op = newest[0]
+        while op["state"] not in FINAL:
+            message = json.loads(await ws.recv())
+            data = message.get("data") or {}
+            if message.get("type") == "event" and data.get("id") == op["id"]:
+                op = data
 
 
 async def test_three_cells_on_one_broker(broker: Broker, central: Central, tmp_path: Path) -> None:
@@ -34,9 +56,7 @@ async def test_three_cells_on_one_broker(broker: Broker, central: Central, tmp_p
                 birth = await central.wait_for("DBIRTH", node=cell.node, device=device)
                 for axis in axes:
                     assert f"Axis/{axis}/Position" in birth.values
-                await central.wait_for(
-                    "DDATA", node=cell.node, device=device, where=lambda m: "Mode" in m.values
-                )
+                await central.identified(cell.node, device)
         start = central.mark()
         began = asyncio.get_running_loop().time()
         await asyncio.gather(*(cell.move(axis, TARGET) for cell in cells for axis in MOVING))
@@ -77,12 +97,10 @@ async def test_three_cells_on_one_broker(broker: Broker, central: Central, tmp_p
         death = await central.wait_for("NDEATH", node="cell-b", since=mark)
         birth = next(m for m in central.messages if m.kind == "NBIRTH" and m.node == "cell-b")
         assert death.values["bdSeq"] == birth.values["bdSeq"]
-        # The final position can come before the status read that sees the axis stop: a move
-        # sent before that is refused (409, the axis is moving).
-        await central.wait_for(
-            "DDATA", node="cell-a", device="gantry", since=start,
-            where=lambda m: m.values.get("Axis/x/Moving") is False,
-        )  # fmt: skip
+        # A move sent before x's operation has ended is refused (409, the axis is moving):
+        # the operation ends with the position read after the status read that saw the stop
+        # (Moving false), one exchange later than that DDATA.
+        await _operation_over(cells[0], "x")
         await cells[0].move("x", 0)
         await central.wait_for(
             "DDATA", node="cell-a", device="gantry", since=mark,

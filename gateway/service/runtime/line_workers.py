@@ -6,6 +6,10 @@ proxies, the pollers') and a ``WorkerSupervisor`` (the process, started again wi
 when it dies); one ``StateMirror`` follows every worker. ``Runtime`` offers the proxies as
 its ``schedulers``, the mirror as its ``state``: service/ and the faces read them as they
 read the schedulers and cache of one process.
+
+``lines`` (``WorkerLines``): the workers build their loops' lines themselves, each from what
+``lines.lines`` holds for it, running ``lines.program`` (``serve --simulate``: a simulator in
+the worker beside the scheduler that talks to it); without it each opens its loops' ports.
 """
 
 from __future__ import annotations
@@ -15,7 +19,7 @@ import asyncio
 from gateway.engine.mirror import StateMirror
 from gateway.engine.proxy import SchedulerProxy, WorkerClient
 from gateway.engine.remote import PollerProxy
-from gateway.engine.spec import LoopSpec
+from gateway.engine.spec import LoopSpec, WorkerLines
 from gateway.engine.supervisor import WorkerSupervisor
 from gateway.service.config import GatewayConfig
 from gateway.service.config_engine import worker_groups
@@ -35,6 +39,7 @@ class LineWorkers:
         time_scale: float,
         *,
         cores: int | None = None,
+        lines: WorkerLines | None = None,
     ) -> None:
         self.mirror = StateMirror()
         self.schedulers: dict[str, SchedulerProxy] = {}
@@ -53,6 +58,7 @@ class LineWorkers:
                         tuple(ref.bodies),
                         ref.settings.port,
                         ref.settings.baud,
+                        None if lines is None else lines.lines[name],
                     )
                 )
             worker = "+".join(group)
@@ -60,7 +66,10 @@ class LineWorkers:
             self.schedulers.update(client.proxies)
             self.pollers.update(client.pollers)
             backoff = config.engine.restart_backoff
-            self.supervisors.append(WorkerSupervisor(client, specs, backoff=backoff))
+            program = None if lines is None else lines.program
+            self.supervisors.append(
+                WorkerSupervisor(client, specs, backoff=backoff, program=program)
+            )
 
     def follow(self, controllers: frozenset[tuple[str, str]]) -> None:
         """Relay the reply events of ``controllers`` (loop, body) only, each worker told of

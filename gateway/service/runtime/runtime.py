@@ -2,10 +2,13 @@
 
 The loops run in line worker processes (``Runtime(config)``: ``LineWorkers``, the workers
 grouped by ``[engine] workers``): ``schedulers`` are the workers' proxies, ``state`` the
-mirror their changes feed, ``pollers`` switch the workers' pollers. ``Runtime(config,
-transports=...)`` runs them in this process on the transports given, one per loop: the seam
-the tests (and ``serve --simulate``'s in-process simulator) put a line behind; service/ and
-the faces read either form through the same surface (``gateway.engine.surface``).
+mirror their changes feed, ``pollers`` switch the workers' pollers. ``worker_lines``: the
+workers build their lines themselves (``serve --simulate``: a simulator in each worker)
+instead of opening the loops' ports. Every command a user runs (``serve``, with or without
+``--simulate``) takes that path. ``Runtime(config, transports=...)`` runs the loops in this
+process on the transports given, one per loop: the seam the tests put a line behind, and
+nothing else; service/ and the faces read either form through the same surface
+(``gateway.engine.surface``).
 
 Building a ``Runtime`` touches no port and starts no process; ``await start()`` starts the
 workers (or opens every loop: one attempt each; a loop that cannot open now keeps trying in
@@ -28,6 +31,7 @@ from gateway.bus.events import BusEvent, LinkDown, LinkUp, UnsolicitedMessage
 from gateway.bus.poller import Poller, attach
 from gateway.bus.scheduler import LinkState, LoopScheduler
 from gateway.bus.state import StateCache
+from gateway.engine.spec import WorkerLines
 from gateway.engine.surface import LinePoller, LineScheduler
 from gateway.protocol.commands import position
 from gateway.protocol.reply_parser import UnsolicitedKind
@@ -62,6 +66,7 @@ class Runtime:
         transports: Mapping[str, Transport] | None = None,
         time_scale: float = 1.0,
         store: StateStore | None = None,
+        worker_lines: WorkerLines | None = None,
     ) -> None:
         self.config = config
         #: what must outlive the process (operations, idempotency keys, counters); in memory
@@ -78,12 +83,14 @@ class Runtime:
         #: which controllers' replies the workers relay (None: in one process, no channel)
         self.followed: FollowedControllers | None = None
         if transports is None:
-            self.workers = LineWorkers(config, self.topology, time_scale)
+            self.workers = LineWorkers(config, self.topology, time_scale, lines=worker_lines)
             self.followed = FollowedControllers(self.events, self.workers.follow)
             self.state: StateCache = self.workers.mirror
             self.schedulers = dict(self.workers.schedulers)
             self.pollers = dict(self.workers.pollers)
         else:
+            if worker_lines is not None:
+                raise ValueError("transports or worker_lines, not both")
             self.state = StateCache()
             self.schedulers, self.pollers = self._in_process(transports, time_scale)
         for scheduler in self.schedulers.values():

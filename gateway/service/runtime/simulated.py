@@ -1,6 +1,6 @@
 """The configuration of ``rc233-gateway serve --simulate``: one loop, its axes named.
 
-No file needed: loop ``sim`` on the in-process simulated line, controllers 1, 2 and 3 by
+No file needed: loop ``sim`` on a simulated line in its line worker, controllers 1, 2 and 3 by
 default, each axis named and given a unit so that a first user sees what a real cell looks
 like. Soft limits sit inside the simulator's default scene (limits at -5,000 and 95,000
 pulses, gateway/sim/scene.py), so a move the gateway refuses is one a real cell would not
@@ -56,7 +56,7 @@ def simulated_config(
         )
     return parse_config(
         {
-            "loops": [{"name": SIM_LOOP, "port": "sim://in-process", "controllers": controllers}],
+            "loops": [{"name": SIM_LOOP, "port": "sim://line-worker", "controllers": controllers}],
             "security": {"tokens": list(tokens)},
         },
         "--simulate",
