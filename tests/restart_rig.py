@@ -25,6 +25,8 @@ from typing import Any
 
 from websockets.asyncio.client import ClientConnection, connect
 
+from tests.ws_events import sim_control
+
 GATEWAY = Path(sys.executable).parent / "rc233-gateway"
 #: Real seconds to wait for a process or an answer.
 WAIT = 30.0
@@ -142,16 +144,7 @@ class RestartRig:
 
     async def control(self, **request: Any) -> dict[str, Any]:
         """One request to the simulator's control surface."""
-        reader, writer = await asyncio.wait_for(
-            asyncio.open_connection("127.0.0.1", self.control_port), WAIT
-        )
-        try:
-            writer.write(json.dumps(request).encode() + b"\n")
-            reply: dict[str, Any] = json.loads(await asyncio.wait_for(reader.readline(), WAIT))
-        finally:
-            writer.close()
-        assert reply.get("ok"), reply
-        return reply
+        return await sim_control(self.control_port, **request)
 
     async def axis(self, body: str, motor: int) -> dict[str, Any]:
         """The simulated axis as the simulator knows it (position, moving)."""

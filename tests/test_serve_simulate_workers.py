@@ -10,7 +10,6 @@ Real processes (``tests/serve_process.py``); the worker is found from ``serve``'
 from __future__ import annotations
 
 import asyncio
-import json
 import os
 import re
 import signal
@@ -22,53 +21,15 @@ from typing import Any
 
 import httpx
 import pytest
-from websockets.asyncio.client import connect
 
 from gateway.cli import main
 from tests.restart_rig import GATEWAY, RestartRig
 from tests.serve_process import Served, free_port, serve
+from tests.ws_events import Events, is_link, sim_control, worker_sample, ws_events
 
 #: Real seconds to wait for an answer or an event.
 WAIT = 30.0
 API = "/api/v1"
-
-
-class Events:
-    """Every WebSocket event of the gateway, kept; ``until(check)`` the first that matches."""
-
-    def __init__(self) -> None:
-        self.seen: list[dict[str, Any]] = []
-        self.came = asyncio.Event()
-
-    async def until(self, check: Callable[[dict[str, Any]], bool]) -> dict[str, Any]:
-        try:
-            async with asyncio.timeout(WAIT):
-                while True:
-                    for event in self.seen:
-                        if check(event):
-                            return event
-                    self.came.clear()
-                    await self.came.wait()
-        except TimeoutError:
-            raise AssertionError(f"no such message; the last ones: {self.seen[-8:]}") from None
-
-
-@asynccontextmanager
-async def _events(served: Served) -> AsyncIterator[Events]:
-    events = Events()
-    async with connect(served.url.replace("http", "ws", 1) + f"{API}/ws") as ws:
-        await ws.send(json.dumps({"type": "subscribe", "topics": ["events", "loop:*", "axis:*"]}))
-
-        async def read() -> None:
-            async for raw in ws:
-                events.seen.append(json.loads(raw))
-                events.came.set()
-
-        reader = asyncio.create_task(read())
-        try:
-            yield events
-        finally:
-            reader.cancel()
 
 
 @asynccontextmanager
@@ -83,18 +44,6 @@ async def _simulated(tmp_path: Path) -> AsyncIterator[tuple[Served, int, httpx.A
         httpx.AsyncClient(base_url=served.url, timeout=WAIT) as client,
     ):
         yield served, control, client
-
-
-async def _control(port: int, **request: Any) -> dict[str, Any]:
-    """One request to the simulator's control surface."""
-    reader, writer = await asyncio.wait_for(asyncio.open_connection("127.0.0.1", port), WAIT)
-    try:
-        writer.write(json.dumps(request).encode() + b"\n")
-        reply: dict[str, Any] = json.loads(await asyncio.wait_for(reader.readline(), WAIT))
-    finally:
-        writer.close()
-    assert reply.get("ok"), reply
-    return reply
 
 
 def _worker_pid(served: Served, loop: str) -> int:
@@ -113,22 +62,6 @@ def _worker_pid(served: Served, loop: str) -> int:
     return pid
 
 
-def _sample(metrics: str, name: str, worker: str) -> float:
-    found = re.search(rf'^{name}{{worker="{worker}"}} (\S+)$', metrics, re.M)
-    assert found, metrics
-    return float(found[1])
-
-
-def _is_link(event: dict[str, Any], loop: str, up: bool, says: str = "") -> bool:
-    data = event.get("data") or {}
-    return (
-        event.get("type") == "event"
-        and data.get("loop") == loop
-        and data.get("up") is up
-        and says in (data.get("cause") or "")
-    )
-
-
 def _axis(event: dict[str, Any], axis: str, check: Callable[[dict[str, Any]], bool]) -> bool:
     data = event.get("data") or {}
     return data.get("id") == axis and data.get("stale") is False and check(data)
@@ -139,10 +72,10 @@ async def _kill_worker(served: Served, events: Events) -> int:
     first = _worker_pid(served, "sim")
     events.seen.clear()
     os.kill(first, signal.SIGKILL)
-    down = await events.until(lambda e: _is_link(e, "sim", False, "killed by SIGKILL"))
+    down = await events.until(lambda e: is_link(e, "sim", False, "killed by SIGKILL"))
     assert "line worker sim was killed by SIGKILL; restarting in" in down["data"]["cause"]
     assert down["data"]["retry_after"] > 0
-    await events.until(lambda e: _is_link(e, "sim", True))
+    await events.until(lambda e: is_link(e, "sim", True))
     second = _worker_pid(served, "sim")
     assert second != first
     return second
@@ -151,11 +84,11 @@ async def _kill_worker(served: Served, events: Events) -> int:
 async def test_the_simulated_loop_runs_in_a_worker_that_is_restarted_when_killed(
     tmp_path: Path,
 ) -> None:
-    async with _simulated(tmp_path) as (served, control, client), _events(served) as events:
+    async with _simulated(tmp_path) as (served, control, client), ws_events(served.url) as events:
         worker = _worker_pid(served, "sim")
         metrics = (await client.get("/metrics")).text
-        assert _sample(metrics, "rc233_worker_up", "sim") == 1
-        assert _sample(metrics, "rc233_worker_restarts_total", "sim") == 0
+        assert worker_sample(metrics, "rc233_worker_up", "sim") == 1
+        assert worker_sample(metrics, "rc233_worker_restarts_total", "sim") == 0
         assert f'rc233_process_resident_bytes{{role="worker",pid="{worker}"}}' in metrics
 
         moved = await client.post(
@@ -165,14 +98,14 @@ async def test_the_simulated_loop_runs_in_a_worker_that_is_restarted_when_killed
         read = await client.get(f"{API}/axes/x")
         assert read.json()["position"] == 300 and read.json()["position_user"] == 3.0
         # what the simulator in the worker heard, through the control port
-        assert (await _control(control, op="state"))["state"]["units"][0]["controller"]["axes"][
+        assert (await sim_control(control, op="state"))["state"]["units"][0]["controller"]["axes"][
             "1"
         ]["position"] == 300
 
         await _kill_worker(served, events)
         metrics = (await client.get("/metrics")).text
-        assert _sample(metrics, "rc233_worker_up", "sim") == 1
-        assert _sample(metrics, "rc233_worker_restarts_total", "sim") == 1
+        assert worker_sample(metrics, "rc233_worker_up", "sim") == 1
+        assert worker_sample(metrics, "rc233_worker_restarts_total", "sim") == 1
         assert (await client.get("/readyz")).status_code == 200
         # The new worker built its simulator afresh: its axes at 0, as after a power-on.
         await events.until(lambda e: _axis(e, "sim.1.1", lambda d: d["position"] == 0))
@@ -188,19 +121,19 @@ async def test_the_simulated_loop_runs_in_a_worker_that_is_restarted_when_killed
 async def test_the_control_port_drives_the_simulator_of_the_running_worker(
     tmp_path: Path,
 ) -> None:
-    async with _simulated(tmp_path) as (served, control, client), _events(served) as events:
-        await _control(control, op="ems", body="1", pressed=True)
+    async with _simulated(tmp_path) as (served, control, client), ws_events(served.url) as events:
+        await sim_control(control, op="ems", body="1", pressed=True)
         await events.until(lambda e: _axis(e, "sim.1.1", lambda d: d["errors"]["emergency"]))
-        await _control(control, op="ems", body="1", pressed=False)
+        await sim_control(control, op="ems", body="1", pressed=False)
 
         await _kill_worker(served, events)
         # The same port, now served by the new worker: its simulator obeys and the gateway
         # sees it.
-        await _control(control, op="preset", body="2", motor=1, position=1234)
+        await sim_control(control, op="preset", body="2", motor=1, position=1234)
         seen = await events.until(lambda e: _axis(e, "sim.2.1", lambda d: d["position"] == 1234))
         assert seen["data"]["name"] == "z"
         assert (await client.get(f"{API}/axes/z")).json()["position"] == 1234
-        await _control(control, op="ems", body="3", pressed=True)
+        await sim_control(control, op="ems", body="3", pressed=True)
         await events.until(lambda e: _axis(e, "sim.3.1", lambda d: d["errors"]["emergency"]))
 
 
@@ -212,7 +145,7 @@ async def test_a_baud_change_reaches_the_simulated_line_through_the_worker(
         assert changed.status_code == 200, changed.text
         body = changed.json()
         assert body["outcome"] == "done" and body["baud"] == 1200, body
-        state = (await _control(control, op="state"))["state"]
+        state = (await sim_control(control, op="state"))["state"]
         assert state["baud"] == 1200  # the host's UART: the simulated line in the worker
         assert [u["controller"]["baud"] for u in state["units"]] == [1200, 1200, 1200]
         assert (await client.get(f"{API}/loops/sim")).json()["baud"] == 1200
@@ -223,7 +156,7 @@ async def test_a_baud_change_reaches_the_simulated_line_through_the_worker(
 
         back = await client.post(f"{API}/loops/sim/baud", json={"baud": 9600})
         assert back.status_code == 200 and back.json()["outcome"] == "done", back.text
-        state = (await _control(control, op="state"))["state"]
+        state = (await sim_control(control, op="state"))["state"]
         assert state["baud"] == 9600
         assert [u["controller"]["baud"] for u in state["units"]] == [9600, 9600, 9600]
         assert _worker_pid(served, "sim")

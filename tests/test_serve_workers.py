@@ -15,15 +15,15 @@ import json
 import os
 import re
 import signal
-from collections.abc import AsyncIterator, Callable
+from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 from pathlib import Path
 from typing import Any
 
 import httpx
-from websockets.asyncio.client import connect
 
 from tests.restart_rig import WAIT, Gateway, RestartRig
+from tests.ws_events import Events, is_link, worker_sample, ws_events
 
 #: Real time: a 9,000-pulse move takes some 4 s, still going when its worker is killed.
 SCALE = 1.0
@@ -84,44 +84,6 @@ async def _cell(tmp_path: Path) -> AsyncIterator[tuple[RestartRig, Gateway]]:
         await side.close()
 
 
-class Events:
-    """Every WebSocket event of the gateway, kept; ``until(check)`` the first that matches."""
-
-    def __init__(self) -> None:
-        self.seen: list[dict[str, Any]] = []
-        self.came = asyncio.Event()
-
-    async def until(self, check: Callable[[dict[str, Any]], bool]) -> dict[str, Any]:
-        try:
-            async with asyncio.timeout(WAIT):
-                while True:
-                    for event in self.seen:
-                        if check(event):
-                            return event
-                    self.came.clear()
-                    await self.came.wait()
-        except TimeoutError:
-            raise AssertionError(f"no such message; the last ones: {self.seen[-8:]}") from None
-
-
-@asynccontextmanager
-async def _events(gateway: Gateway) -> AsyncIterator[Events]:
-    events = Events()
-    async with connect(gateway.url.replace("http", "ws", 1) + "/api/v1/ws") as ws:
-        await ws.send(json.dumps({"type": "subscribe", "topics": ["events", "loop:*", "axis:*"]}))
-
-        async def read() -> None:
-            async for raw in ws:
-                events.seen.append(json.loads(raw))
-                events.came.set()
-
-        reader = asyncio.create_task(read())
-        try:
-            yield events
-        finally:
-            reader.cancel()
-
-
 def _worker_pid(gateway: Gateway, loop: str) -> int:
     """The pid of the worker running ``loop``, a child of ``serve`` (from its start line)."""
     lines = [line for line in gateway.log if f"for the loops {loop}" in line]
@@ -134,22 +96,6 @@ def _worker_pid(gateway: Gateway, loop: str) -> int:
     return pid
 
 
-def _sample(metrics: str, name: str, worker: str) -> float:
-    found = re.search(rf'^{name}{{worker="{worker}"}} (\S+)$', metrics, re.M)
-    assert found, metrics
-    return float(found[1])
-
-
-def _is_link(event: dict[str, Any], loop: str, up: bool, says: str = "") -> bool:
-    data = event.get("data") or {}
-    return (
-        event.get("type") == "event"
-        and data.get("loop") == loop
-        and data.get("up") is up
-        and says in (data.get("cause") or "")
-    )
-
-
 def _shows_ems(event: dict[str, Any], axis: str) -> bool:
     data = event.get("data") or {}
     return data.get("id") == axis and bool((data.get("errors") or {}).get("emergency"))
@@ -157,7 +103,7 @@ def _shows_ems(event: dict[str, Any], axis: str) -> bool:
 
 async def _loop_up(client: httpx.AsyncClient, events: Events, loop: str) -> None:
     if not (await client.get(f"/api/v1/loops/{loop}")).json()["up"]:
-        await events.until(lambda e: _is_link(e, loop, True))
+        await events.until(lambda e: is_link(e, loop, True))
 
 
 async def test_a_worker_killed_mid_move_is_restarted_and_the_move_is_read_back(
@@ -166,13 +112,13 @@ async def test_a_worker_killed_mid_move_is_restarted_and_the_move_is_read_back(
     async with (
         _cell(tmp_path) as (rig, gateway),
         httpx.AsyncClient(base_url=gateway.url, timeout=WAIT) as client,
-        _events(gateway) as events,
+        ws_events(gateway.url) as events,
     ):
         api = "/api/v1"
         await _loop_up(client, events, "side")
         metrics = (await client.get("/metrics")).text
-        assert _sample(metrics, "rc233_worker_up", "main") == 1
-        assert _sample(metrics, "rc233_worker_restarts_total", "main") == 0
+        assert worker_sample(metrics, "rc233_worker_up", "main") == 1
+        assert worker_sample(metrics, "rc233_worker_restarts_total", "main") == 0
         started = await client.post(f"{api}/axes/x/move", json=MOVE)
         assert started.status_code == 202, started.text
         op = started.json()["id"]
@@ -181,7 +127,7 @@ async def test_a_worker_killed_mid_move_is_restarted_and_the_move_is_read_back(
 
         killed_at = len(events.seen)
         os.kill(_worker_pid(gateway, "main"), signal.SIGKILL)
-        down = await events.until(lambda e: _is_link(e, "main", False, "killed by SIGKILL"))
+        down = await events.until(lambda e: is_link(e, "main", False, "killed by SIGKILL"))
         assert down["data"]["retry_after"] == BACKOFF
         assert f"restarting in {BACKOFF:g} s" in down["data"]["cause"]
         # The outage: requests to the loop are refused with when to ask again ...
@@ -194,13 +140,13 @@ async def test_a_worker_killed_mid_move_is_restarted_and_the_move_is_read_back(
         assert ready.json()["loops_down"] == ["main"]
         assert "main" in ready.json()["detail"] and "killed by SIGKILL" in ready.json()["detail"]
         metrics = (await client.get("/metrics")).text
-        assert _sample(metrics, "rc233_worker_up", "main") == 0
-        assert _sample(metrics, "rc233_worker_restarts_total", "main") == 1
-        assert _sample(metrics, "rc233_worker_up", "side") == 1
+        assert worker_sample(metrics, "rc233_worker_up", "main") == 0
+        assert worker_sample(metrics, "rc233_worker_restarts_total", "main") == 1
+        assert worker_sample(metrics, "rc233_worker_up", "side") == 1
         # ... while the other loop, in its own worker, moves as before.
         side = await client.post(f"{api}/axes/f/move?wait=true", json={**MOVE, "position": 300})
         assert side.status_code == 200 and side.json()["state"] == "done", side.text
-        assert not any(_is_link(e, "main", True) for e in events.seen[killed_at:])  # still down
+        assert not any(is_link(e, "main", True) for e in events.seen[killed_at:])  # still down
 
         # The new worker reads the controller: the move's end is read back, not guessed.
         unknown = (await client.get(f"{api}/operations/{op}")).json()
@@ -212,9 +158,9 @@ async def test_a_worker_killed_mid_move_is_restarted_and_the_move_is_read_back(
         assert (await rig.axis("1", 1))["position"] == 9000
         assert (await client.get("/readyz")).status_code == 200
         metrics = (await client.get("/metrics")).text
-        assert _sample(metrics, "rc233_worker_up", "main") == 1
-        assert _sample(metrics, "rc233_worker_restarts_total", "main") == 1
-        assert _sample(metrics, "rc233_worker_restarts_total", "side") == 0
+        assert worker_sample(metrics, "rc233_worker_up", "main") == 1
+        assert worker_sample(metrics, "rc233_worker_restarts_total", "main") == 1
+        assert worker_sample(metrics, "rc233_worker_restarts_total", "side") == 0
     assert any("line worker main was killed by SIGKILL" in line for line in gateway.log)
 
 
@@ -222,7 +168,7 @@ async def test_a_latched_error_outlives_its_worker_until_acknowledged(tmp_path: 
     async with (
         _cell(tmp_path) as (rig, gateway),
         httpx.AsyncClient(base_url=gateway.url + "/api/v1", timeout=WAIT) as client,
-        _events(gateway) as events,
+        ws_events(gateway.url) as events,
     ):
         await rig.control(op="ems", body="1", pressed=True)
         await events.until(lambda e: _shows_ems(e, "main.1.1"))
@@ -231,10 +177,10 @@ async def test_a_latched_error_outlives_its_worker_until_acknowledged(tmp_path: 
 
         first = _worker_pid(gateway, "main")
         os.kill(first, signal.SIGKILL)
-        await events.until(lambda e: _is_link(e, "main", False, "killed by SIGKILL"))
+        await events.until(lambda e: is_link(e, "main", False, "killed by SIGKILL"))
         # Switched off and on while nobody watched: the controller holds no error any more.
         await rig.control(op="power_cycle", body="1")
-        await events.until(lambda e: _is_link(e, "main", True))
+        await events.until(lambda e: is_link(e, "main", True))
         events.seen.clear()
         # The new worker reads the controller again (the axis current, no longer stale): it
         # reports no error and the new worker's cache latched none, but the client has not

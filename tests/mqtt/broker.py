@@ -32,6 +32,7 @@ import aiomqtt
 import pytest
 
 from tests.mqtt.sparkplug_decoder import Metric, Payload, decode
+from tests.ws_events import sim_control
 
 GATEWAY = Path(sys.executable).parent / "rc233-gateway"
 #: Real seconds a test waits for something it expects from a broker or a gateway.
@@ -270,16 +271,7 @@ class Cell:
 
     async def control(self, **request: Any) -> dict[str, Any]:
         """One request to the simulator's control surface."""
-        reader, writer = await asyncio.wait_for(
-            asyncio.open_connection("127.0.0.1", self.control_port), WAIT
-        )
-        try:
-            writer.write(json.dumps(request).encode() + b"\n")
-            reply: dict[str, Any] = json.loads(await asyncio.wait_for(reader.readline(), WAIT))
-        finally:
-            writer.close()
-        assert reply.get("ok"), reply
-        return reply
+        return await sim_control(self.control_port, **request)
 
     async def move(self, axis: str, position: int) -> None:
         """``POST /api/v1/axes/{axis}/move`` (pulses) through the REST API."""

@@ -3,9 +3,7 @@ two loops' worth of names, an operator and a viewer token, soft limits, a key sw
 
 from __future__ import annotations
 
-import asyncio
 import hashlib
-import json
 from collections.abc import AsyncIterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -14,6 +12,7 @@ from typing import Any
 import pytest_asyncio
 
 from tests.serve_process import Served, free_port, serve
+from tests.ws_events import sim_control
 
 OPERATOR = ("op", "operator-token-0123456789")
 VIEWER = ("view", "viewer-token-0123456789")
@@ -82,18 +81,8 @@ class Cell:
 
     async def control(self, **request: Any) -> dict[str, Any]:
         """One request to the simulator's control surface."""
-        reader, writer = await asyncio.wait_for(
-            # a trace of the whole run is longer than a stream's default line limit
-            asyncio.open_connection("127.0.0.1", self.control_port, limit=2**24),
-            WAIT,
-        )
-        try:
-            writer.write(json.dumps(request).encode() + b"\n")
-            reply: dict[str, Any] = json.loads(await asyncio.wait_for(reader.readline(), WAIT))
-        finally:
-            writer.close()
-        assert reply.get("ok"), reply
-        return reply
+        # a trace of the whole run is longer than a stream's default line limit
+        return await sim_control(self.control_port, limit=2**24, **request)
 
 
 @pytest_asyncio.fixture(scope="module", loop_scope="module")
