@@ -43,6 +43,14 @@ MAX_MESSAGE = 64 * 1024 * 1024
 
 Channel = tuple[asyncio.StreamReader, asyncio.StreamWriter]
 
+#: texts each end keeps parsed (``command_of``) and checked (``_parses_back``). The texts that
+#: repeat are the poller's and the status reads, a few dozen; a move's or a speed's carries
+#: its value, so nearly every one is new. At 4,096 the two caches took the first hour of
+#: traffic to fill (some 1 KB an entry: 4 MB a process), growth a soak still saw after its
+#: warm-up; at 256 they fill in minutes and hold 0.25 MB, and the repeating texts, used
+#: every second, stay in them (least recently used goes first).
+TEXT_CACHE_SIZE = 256
+
 
 def read_only(mapping: dict[Any, Any]) -> MappingProxyType[Any, Any]:
     """A read-only mapping again, on the receiving end (pickle names this function)."""
@@ -58,7 +66,7 @@ _REDUCERS = copyreg.dispatch_table.copy()
 _REDUCERS[MappingProxyType] = _reduce_mapping
 
 
-@functools.lru_cache(maxsize=4096)
+@functools.lru_cache(maxsize=TEXT_CACHE_SIZE)
 def command_of(text: str, model: str) -> Command:
     """A command again from its text (pickle names this function): the models are made per
     form at import, so they cross as the text they encode to and are parsed on arrival
@@ -70,7 +78,7 @@ def command_of(text: str, model: str) -> Command:
     return command
 
 
-@functools.lru_cache(maxsize=4096)
+@functools.lru_cache(maxsize=TEXT_CACHE_SIZE)
 def _parses_back(text: str, model: str) -> bool:
     """True when ``text`` parses as the model ``model`` outside a program (a program's own
     statements, ``/`` waits among them, do not)."""

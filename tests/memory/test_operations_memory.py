@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import asyncio
+import gc
+import weakref
+
 from gateway.service.operations.registry import MEMORY
 from tests.api.sim_app import json_of, running_app
 
@@ -36,3 +40,20 @@ async def test_memory_keeps_its_bound_and_older_operations_come_from_the_store()
         assert [o["id"] for o in two] == ids[::-1][:5]
         unknown = await api.client.get("/operations/op-99999-00000000")
         assert unknown.status_code == 404
+
+
+async def test_a_forgotten_operation_lets_go_of_its_finished_event() -> None:
+    # Each operation owns an asyncio.Event that ``?wait=true`` waits on; it must leave memory
+    # with its operation, or the API process keeps one event a move for ever.
+    async with running_app() as api:
+        api.operations.retention = 2
+        events: list[weakref.ref[asyncio.Event]] = []
+        for n in range(6):
+            axis = "x" if n % 2 else "z"
+            r = await api.client.post(f"/axes/{axis}/step?wait=true", json={"direction": "cw"})
+            assert r.status_code == 200, r.text
+            events.append(weakref.ref(api.operations.get(json_of(r)["id"]).finished))
+        await api.gateway.store.run(lambda c: None)
+        gc.collect()
+        alive = [ref() is not None for ref in events]
+        assert alive == [False] * 4 + [True] * 2  # the two kept ones only
