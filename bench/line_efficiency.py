@@ -30,6 +30,7 @@ import asyncio
 import json
 import statistics
 import time
+from collections.abc import Callable
 from typing import Any
 
 from gateway.bus.config import LoopConfig
@@ -40,6 +41,7 @@ from gateway.protocol.registry import parse
 from gateway.sim.cli import build_loop
 from gateway.sim.clock import RecordKind, SimClock
 from gateway.sim.serve import SimPort
+from gateway.transport.base import Sink, TransportClosed
 from gateway.transport.pipe import PipeTransport
 
 BODIES = ["1", "2", "3"]
@@ -54,17 +56,36 @@ class _Timed(PipeTransport):
         self.host_gaps: list[float] = []  # real seconds from a reply's CR to the next write
         self._reply_end: float | None = None
 
-    async def read(self) -> bytes:
-        data = await super().read()
+    def _noted(self, data: bytes) -> bytes:
         if data.endswith(b"\r") or data.endswith(b">"):
             self._reply_end = time.perf_counter()
         return data
+
+    async def read(self) -> bytes:
+        return self._noted(await super().read())
+
+    def deliver(self, sink: Sink | None) -> bool:
+        # The receiver takes each chunk from the connection's callback (no read): note there.
+        return super().deliver(None if sink is None else _Noting(sink, self._noted))
 
     def write(self, data: bytes) -> None:
         if self._reply_end is not None:
             self.host_gaps.append(time.perf_counter() - self._reply_end)
             self._reply_end = None
         super().write(data)
+
+
+class _Noting(Sink):
+    """A receiver's sink, each chunk noted on its way."""
+
+    def __init__(self, sink: Sink, note: Callable[[bytes], bytes]) -> None:
+        self._sink, self._note = sink, note
+
+    def received(self, data: bytes) -> None:
+        self._sink.received(self._note(data))
+
+    def closed(self, error: TransportClosed) -> None:
+        self._sink.closed(error)
 
 
 def _percentile(values: list[float], q: float) -> float:
