@@ -69,7 +69,9 @@ async def test_a_watched_axis_takes_the_line_from_the_idle_controllers(
     watched = status_times(r, "1", start, end)
     assert len(watched) >= 5 * 5, len(watched)
     assert max(b - a for a, b in pairwise(watched)) < SKIPPED, watched
-    assert len(positions) >= 0.84 * len(frames), (len(positions), len(frames))
+    # (Higher on a quiet host; the host's own delays, at real time, lower it: 0.83 beside two
+    # CPU hogs. The idle reads' spacing below is what tells the plan apart.)
+    assert len(positions) >= 0.8 * len(frames), (len(positions), len(frames))
     # The idle controllers' status 2 s apart (1 s before), never further than that: their
     # axes stay fresh. All their polls together: some 0.8 frames a second each, against 1.9.
     for body in "23":
