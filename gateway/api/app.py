@@ -99,11 +99,11 @@ def audit_of(config: GatewayConfig) -> AuditLog:
     )
 
 
-def create_app(gateway: Runtime, *, auth: AuthConfig) -> FastAPI:
+def create_app(runtime: Runtime, *, auth: AuthConfig) -> FastAPI:
     """The application serving ``gateway`` with ``auth`` (tokens, or no-auth mode)."""
-    audit = audit_of(gateway.config)
+    audit = audit_of(runtime.config)
     leases = Leases()
-    operations = Operations(gateway)
+    operations = Operations(runtime)
     operations.on_resolved(lambda op: audit.record(resolution_entry(op, API_PREFIX)))
     # A jog the last process left running, stopped by this one at start: no request made it.
     operations.on_restart_stop(lambda stop: audit.record(stop.audit_entry(API_PREFIX)))
@@ -112,22 +112,22 @@ def create_app(gateway: Runtime, *, auth: AuthConfig) -> FastAPI:
         if change.source == "key_switch":
             audit.record(control_entry(change, API_PREFIX))
 
-    gateway.control.changes.subscribe(audit_key_switch)
+    runtime.control.changes.subscribe(audit_key_switch)
 
     def audit_origin(event: ServiceEvent) -> None:  # a reset seen on the line: no request
         entry = origin_entry(event, API_PREFIX)
         if entry is not None:
             audit.record(entry)
 
-    gateway.events.subscribe(audit_origin)
+    runtime.events.subscribe(audit_origin)
     feed = Feed(
-        gateway.topology,
-        gateway.state,
-        gateway.events,
-        gateway.config.ws,
-        control=gateway.control,
-        loop_baud=lambda name: gateway.scheduler(name).timing.baud,
-        loop_adapter=lambda name: gateway.scheduler(name).transport.adapter,
+        runtime.topology,
+        runtime.state,
+        runtime.events,
+        runtime.config.ws,
+        control=runtime.control,
+        loop_baud=lambda name: runtime.scheduler(name).timing.baud,
+        loop_adapter=lambda name: runtime.scheduler(name).transport.adapter,
     )
 
     install_log_redaction()  # no token in any log line, whoever prints it
@@ -136,14 +136,14 @@ def create_app(gateway: Runtime, *, auth: AuthConfig) -> FastAPI:
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         audit.start()
         await operations.restore()  # before the loops: what the last process left unended
-        await gateway.start()
+        await runtime.start()
         try:
             yield
         finally:
             feed.close()
             operations.close()
             failures.close()
-            await gateway.close()
+            await runtime.close()
             await audit.close()
 
     app = FastAPI(
@@ -157,13 +157,13 @@ def create_app(gateway: Runtime, *, auth: AuthConfig) -> FastAPI:
         redoc_url=None,
         generate_unique_id_function=operation_id,
     )
-    app.state.gateway = gateway
+    app.state.runtime = runtime
     app.state.leases = leases
     app.state.operations = operations
-    app.state.axes = AxisService(gateway, operations, leases)
-    app.state.controllers = ControllerService(gateway, leases, operations)
-    app.state.stops = StopAll(gateway, operations)
-    app.state.baud = BaudChanger(gateway)
+    app.state.axes = AxisService(runtime, operations, leases)
+    app.state.controllers = ControllerService(runtime, leases, operations)
+    app.state.stops = StopAll(runtime, operations)
+    app.state.baud = BaudChanger(runtime)
     modules = (
         routes_axes,
         routes_operations,
@@ -184,32 +184,32 @@ def create_app(gateway: Runtime, *, auth: AuthConfig) -> FastAPI:
     # outermost so that error responses carry the CORS headers too.
     # Innermost: the plain cached read of an axis, answered without routing (every layer
     # outside still applies to it); anything else it hands on.
-    app.add_middleware(AxisReadPath, gateway=gateway, prefix=API_PREFIX)
+    app.add_middleware(AxisReadPath, runtime=runtime, prefix=API_PREFIX)
     # Around it: a caller's fresh reads beyond a few at a time become cached reads.
     app.add_middleware(FreshReadGate, prefix=API_PREFIX)
     install_problem_handlers(app)
     failures = AuthFailures(audit.record)
     install_security(app, auth, failures)
-    install_idempotency(app, gateway.store)
+    install_idempotency(app, runtime.store)
     app.add_middleware(BodyGate)
     install_audit(app, audit)
     # Outside the audit (a request to another host or from another site never reached the
     # API), inside the metrics and the access line (which count it).
     app.add_middleware(
         RequestGuard,
-        allowed_hosts=gateway.config.security.allowed_hosts,
-        cors_origins=gateway.config.security.cors_origins,
+        allowed_hosts=runtime.config.security.allowed_hosts,
+        cors_origins=runtime.config.security.cors_origins,
     )
-    install_health_and_metrics(app, gateway)
+    install_health_and_metrics(app, runtime)
     install_openapi_docs(app)
-    security = gateway.config.security
+    security = runtime.config.security
     closed = ([] if security.open_metrics else ["/metrics"]) + (
         []
         if security.open_docs
         else [app.openapi_url or "", f"{API_PREFIX}/docs", f"{API_PREFIX}/redoc"]
     )
     app.add_middleware(HardeningMiddleware, closed=closed)
-    origins = list(gateway.config.security.cors_origins)
+    origins = list(runtime.config.security.cors_origins)
     if origins:
         app.add_middleware(
             CORSMiddleware,

@@ -64,25 +64,25 @@ _NOT_READY: dict[int | str, dict[str, Any]] = {
 @router.get("/readyz", response_model=Readiness, responses=_NOT_READY)
 async def readyz(request: Request) -> Any:
     """200 when every loop is up and the audit file takes writes; else 503 naming why."""
-    gateway = _metrics(request).gateway
-    if gateway is None:
+    runtime = _metrics(request).runtime
+    if runtime is None:
         states: dict[str, str] = {}
         down = ["(no gateway)"]
     else:
-        states = {name: str(loop.state) for name, loop in sorted(gateway.schedulers.items())}
+        states = {name: str(loop.state) for name, loop in sorted(runtime.schedulers.items())}
         down = [
             name
-            for name, loop in sorted(gateway.schedulers.items())
+            for name, loop in sorted(runtime.schedulers.items())
             if loop.state is not LinkState.UP
         ]
     audit = getattr(request.app.state, "audit", None)
     audit_error = getattr(audit, "last_error", None)
-    if gateway is not None and gateway.ready() and not down and audit_error is None:
+    if runtime is not None and runtime.ready() and not down and audit_error is None:
         return Readiness(loops=states)
     causes = []
-    if gateway is not None:
+    if runtime is not None:
         for name in down:
-            cause = getattr(gateway.schedulers[name], "cause", "")
+            cause = getattr(runtime.schedulers[name], "cause", "")
             causes.append(f"{name} ({states[name]}{': ' + cause if cause else ''})")
     detail = "not ready; loops down: " + (", ".join(causes) or ", ".join(down) or "none")
     if audit_error:
@@ -121,12 +121,12 @@ async def metrics_head(request: Request) -> Response:
 
 
 def install_health_and_metrics(
-    app: FastAPI, gateway: MetricsSource | None, *, ws: WsStats | None = None
+    app: FastAPI, runtime: MetricsSource | None, *, ws: WsStats | None = None
 ) -> Metrics:
     """Serve ``/healthz``, ``/readyz`` and ``/metrics`` and count HTTP requests; the
     ``Metrics`` (its ``ws`` is the ``WsStats`` for the WebSocket hub). Call it last of the
     ``install_*`` functions so its middleware is the outermost and times everything."""
-    metrics = Metrics(gateway, ws=ws)
+    metrics = Metrics(runtime, ws=ws)
     app.state.metrics = metrics
     app.add_middleware(HttpMetricsMiddleware, metrics=metrics)
     app.include_router(router)

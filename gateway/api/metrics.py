@@ -279,20 +279,20 @@ def _count(watch: _LoopWatch, priority: Enum, outcome: str, duration: float) -> 
 class Metrics:
     """Everything ``/metrics`` shows; ``attach()`` (again) after loops are added."""
 
-    def __init__(self, gateway: MetricsSource | None = None, *, ws: WsStats | None = None):
-        self.gateway = gateway
+    def __init__(self, runtime: MetricsSource | None = None, *, ws: WsStats | None = None):
+        self.runtime = runtime
         self.ws = ws if ws is not None else WsStats()
         self.http = HttpMetrics()
         self._loops: dict[str, _LoopWatch] = {}
         #: the per-controller and per-axis series, for a real gateway (not a test's stand-in)
-        self.cell = CellMetrics(gateway) if isinstance(gateway, Runtime) else None
+        self.cell = CellMetrics(runtime) if isinstance(runtime, Runtime) else None
         self.attach()
 
     def attach(self) -> None:
         """Watch the loops not watched yet (their transaction events, their busy time)."""
-        if self.gateway is None:
+        if self.runtime is None:
             return
-        for name, loop in self.gateway.schedulers.items():
+        for name, loop in self.runtime.schedulers.items():
             if name in self._loops:
                 continue
             watch = _LoopWatch(loop.clock(), lambda: None)
@@ -324,7 +324,7 @@ class Metrics:
         out = Exposition()
         render_build_and_process(out)
         self._render_loops(out)
-        render_workers(out, self.gateway)
+        render_workers(out, self.runtime)
         if self.cell is not None:
             self.cell.render(out)
         self._render_ws(out)
@@ -332,13 +332,13 @@ class Metrics:
         return out.text()
 
     def _render_loops(self, out: Exposition) -> None:
-        gateway = self.gateway
-        if gateway is None:
+        runtime = self.runtime
+        if runtime is None:
             return
-        loops = sorted(gateway.schedulers.items())
+        loops = sorted(runtime.schedulers.items())
         out.family("rc233_gateway_ready", "gauge", "1 when every loop is up.")
-        out.sample("rc233_gateway_ready", {}, 1 if gateway.ready() else 0)
-        snapshots = {name: gateway.loop_counters(name) for name, _ in loops}
+        out.sample("rc233_gateway_ready", {}, 1 if runtime.ready() else 0)
+        snapshots = {name: runtime.loop_counters(name) for name, _ in loops}
         for attr, (metric, help_text) in _COUNTERS.items():
             out.family(metric, "counter", help_text)
             for name, _ in loops:

@@ -48,16 +48,16 @@ _FINAL = {str(state) for state in FINAL}
 class CellMetrics:
     """Watches a gateway's events for the counts; renders the per-resource series."""
 
-    def __init__(self, gateway: Runtime) -> None:
-        self.gateway = gateway
+    def __init__(self, runtime: Runtime) -> None:
+        self.runtime = runtime
         #: (controller id, kind, final state) -> operations
         self.operations: dict[tuple[str, str, str], int] = {}
         #: (controller id, counter) -> count; counter: timeouts, retries
         self.by_controller: dict[tuple[str, str], int] = {}
         self._last: dict[str, tuple[int, int]] = {}
-        self._unsubscribe: list[Callable[[], None]] = [gateway.events.subscribe(self._on_event)]
-        for name, scheduler in gateway.schedulers.items():
-            counters = gateway.loop_counters(name)
+        self._unsubscribe: list[Callable[[], None]] = [runtime.events.subscribe(self._on_event)]
+        for name, scheduler in runtime.schedulers.items():
+            counters = runtime.loop_counters(name)
             self._last[name] = (counters.timeouts, counters.retries)
             self._unsubscribe.append(scheduler.events.subscribe(self._on_bus))
 
@@ -96,8 +96,8 @@ class CellMetrics:
 
     def render(self, out: Exposition) -> None:
         """The per-controller and per-axis families."""
-        gateway = self.gateway
-        cache, topology = gateway.state, gateway.topology
+        runtime = self.runtime
+        cache, topology = runtime.state, runtime.topology
         controllers = list(topology.controllers())
         out.family("rc233_controller_online", "gauge", "1 answering, 0 silent; absent: unknown.")
         for ref in controllers:
@@ -132,7 +132,7 @@ class CellMetrics:
         adapters = sorted(
             (
                 (name, report)
-                for name, scheduler in self.gateway.schedulers.items()
+                for name, scheduler in self.runtime.schedulers.items()
                 if (report := scheduler.transport.adapter) is not None
             ),
             key=lambda item: item[0],
@@ -154,9 +154,9 @@ class CellMetrics:
             out.sample(metric, {"loop": name}, int(report.low_latency))
 
     def _render_axes(self, out: Exposition) -> None:
-        cache = self.gateway.state
+        cache = self.runtime.state
         axes = [
-            (ref, cache.axis(ref.loop, ref.body, ref.motor)) for ref in self.gateway.topology.axes()
+            (ref, cache.axis(ref.loop, ref.body, ref.motor)) for ref in self.runtime.topology.axes()
         ]
         out.family("rc233_axis_info", "gauge", "1 per axis: its name, controller and user unit.")
         for ref, _ in axes:

@@ -13,9 +13,9 @@ from gateway.service.runtime.runtime import Runtime
 __all__ = ["render_workers"]
 
 
-def render_workers(out: Exposition, gateway: object) -> None:
+def render_workers(out: Exposition, runtime: object) -> None:
     """``rc233_worker_up`` and ``rc233_worker_restarts_total`` of every line worker."""
-    workers = gateway.workers if isinstance(gateway, Runtime) else None
+    workers = runtime.workers if isinstance(runtime, Runtime) else None
     supervisors = workers.supervisors if workers is not None else []
     out.family(
         "rc233_worker_up", "gauge", "1 while the line worker process runs and is connected."

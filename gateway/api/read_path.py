@@ -73,9 +73,9 @@ class _Encoded:
 class AxisReadPath:
     """Answer ``GET {prefix}/axes/{id}`` (no query) from the cached, encoded view."""
 
-    def __init__(self, app: ASGIApp, gateway: Runtime, prefix: str) -> None:
+    def __init__(self, app: ASGIApp, runtime: Runtime, prefix: str) -> None:
         self.app = app
-        self.gateway = gateway
+        self.runtime = runtime
         self.start = f"{prefix}/axes/"
         self.route: BaseRoute | None = None  # the routed read's, for the metrics' template
         self._encoded: dict[str, _Encoded] = {}
@@ -124,14 +124,14 @@ class AxisReadPath:
         principal = auth_of_scope(scope).authenticate(bearer_of_headers(scope), "")
         if principal is None or not principal.role.allows(Role.VIEWER):
             return None
-        gateway = self.gateway
+        runtime = self.runtime
         try:
-            ref = gateway.topology.axis(ident)
-            controller = gateway.topology.controller(ref.controller_id)
+            ref = runtime.topology.axis(ident)
+            controller = runtime.topology.controller(ref.controller_id)
         except NotFoundError:
             return None
-        state = gateway.state.axis(ref.loop, ref.body, ref.motor)
-        control = gateway.control.view(controller)
+        state = runtime.state.axis(ref.loop, ref.body, ref.motor)
+        control = runtime.control.view(controller)
         cached = self._encoded.get(ident)
         if (
             cached is not None

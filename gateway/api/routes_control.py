@@ -45,7 +45,7 @@ async def put_controller_control(
 ) -> ControllerControlView:
     """Set one controller local or remote (admin). Never sends anything to the line."""
     ref = service.controller(id)
-    view = service.gateway.control.set_controller(ref, body.state, who.name)
+    view = service.runtime.control.set_controller(ref, body.state, who.name)
     audit_note(request, result=view.state.value, control=view.model_dump(mode="json"))
     return ControllerControlView(controller=ref.id, **view.model_dump())
 
@@ -55,8 +55,8 @@ async def put_loop_control(
     loop: Loop, body: ControlRequest, request: Request, service: Service, who: Admin
 ) -> LoopControlView:
     """Set every controller of a loop local, or lift the loop's setting (admin)."""
-    ref = service.gateway.topology.loop(loop)
-    control = service.gateway.control
+    ref = service.runtime.topology.loop(loop)
+    control = service.runtime.control
     views = control.set_loop(ref.name, body.state, who.name)
     answer = LoopControlView(
         loop=ref.name,

@@ -54,7 +54,7 @@ async def list_operations(
     ident = None
     if axis is not None:
         try:
-            ident = operations.gateway.topology.axis(axis).id
+            ident = operations.runtime.topology.axis(axis).id
         except NotFoundError as exc:
             exc.field = "query.axis"
             raise

@@ -30,8 +30,8 @@ def documents() -> dict[str, dict[str, Any]]:
     """File name -> document: the OpenAPI document, the WebSocket message schema and the
     WebSocket's AsyncAPI document."""
     # never started: building a Runtime starts no worker and opens no line
-    gateway = Runtime(simulated_config())
-    app = create_app(gateway, auth=AuthConfig(TokenBook()))
+    runtime = Runtime(simulated_config())
+    app = create_app(runtime, auth=AuthConfig(TokenBook()))
     return {OPENAPI_FILE: app.openapi(), WS_FILE: ws_schema(), ASYNCAPI_FILE: asyncapi_document()}
 
 

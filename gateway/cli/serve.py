@@ -173,7 +173,7 @@ def _auth(args: argparse.Namespace, config: GatewayConfig) -> AuthConfig:
 
 
 def _edge_node(
-    gateway: Runtime, config: GatewayConfig, auth: AuthConfig, app: Any
+    runtime: Runtime, config: GatewayConfig, auth: AuthConfig, app: Any
 ) -> EdgeNode | None:
     """The Sparkplug B edge node of ``[mqtt]`` (None without the section); its DCMDs are
     authorised by the API's tokens (always: no-auth mode is for loopback, a broker is not)
@@ -186,11 +186,11 @@ def _edge_node(
     mqtt = config.mqtt
     print(f"rc233-gateway serve: Sparkplug B edge node {mqtt.group}/{mqtt.edge_node} on "
           f"{mqtt.host}:{mqtt.port}", flush=True)  # fmt: skip
-    return EdgeNode(gateway, mqtt, commands=commands)
+    return EdgeNode(runtime, mqtt, commands=commands)
 
 
 def _opcua_face(
-    gateway: Runtime, config: GatewayConfig, auth: AuthConfig, app: Any, store: StateStore
+    runtime: Runtime, config: GatewayConfig, auth: AuthConfig, app: Any, store: StateStore
 ) -> OpcUaFace | None:
     """The OPC UA server of ``[opcua]`` (None without the section): its users are the API's
     tokens (always, as for MQTT: no-auth mode is for loopback), its calls go to the API's
@@ -200,7 +200,7 @@ def _opcua_face(
     print(f"rc233-gateway serve: OPC UA server {config.opcua.endpoint}", flush=True)
     audit = app.state.audit
     return OpcUaFace(
-        gateway, config.opcua, axes=app.state.axes, stops=app.state.stops,
+        runtime, config.opcua, axes=app.state.axes, stops=app.state.stops,
         lookup=auth.book.lookup, audit=audit.record, ahead=audit.write_ahead,
         state_dir=store.directory,
     )  # fmt: skip
@@ -269,9 +269,9 @@ async def _serve(
     """Run the API on the loops of ``config`` in line workers (``cell``: simulated loops,
     each built by its worker) with the opened state ``store`` until a signal."""
     lines = None if cell is None else cell.lines
-    gateway = Runtime(config, time_scale=args.time_scale, store=store, worker_lines=lines)
-    StateLog(gateway).start()
-    app = create_app(gateway, auth=auth)
+    runtime = Runtime(config, time_scale=args.time_scale, store=store, worker_lines=lines)
+    StateLog(runtime).start()
+    app = create_app(runtime, auth=auth)
     if auth.no_auth:
         log.warning(
             "AUTHENTICATION IS OFF: anyone who can reach http://%s:%d may move the machines "
@@ -293,18 +293,18 @@ async def _serve(
             timeout_graceful_shutdown=10,
         )
     )
-    loops = ", ".join(f"{ref.name} ({ref.settings.port})" for ref in gateway.topology.loops())
+    loops = ", ".join(f"{ref.name} ({ref.settings.port})" for ref in runtime.topology.loops())
     print(
         f"rc233-gateway serve: dashboard http://{args.host}:{args.port}/ "
         f"API http://{args.host}:{args.port}/api/v1 loops {loops}"
         + (" [simulated]" if cell is not None else "")
-        + f" line workers {workers_text(gateway)}"
+        + f" line workers {workers_text(runtime)}"
         + f" state {store.directory}",
         flush=True,
     )
-    edge_node = _edge_node(gateway, config, auth, app)
+    edge_node = _edge_node(runtime, config, auth, app)
     node_task = asyncio.create_task(edge_node.run()) if edge_node is not None else None
-    opcua = _opcua_face(gateway, config, auth, app, store)
+    opcua = _opcua_face(runtime, config, auth, app, store)
     opcua_started = False
     try:
         if opcua is not None:
@@ -321,10 +321,10 @@ async def _serve(
     return 0
 
 
-def workers_text(gateway: Runtime) -> str:
+def workers_text(runtime: Runtime) -> str:
     """The line workers and their loops, for the start line (``[a, b] [c]``)."""
-    assert gateway.workers is not None
-    return " ".join(f"[{', '.join(s.client.proxies)}]" for s in gateway.workers.supervisors)
+    assert runtime.workers is not None
+    return " ".join(f"[{', '.join(s.client.proxies)}]" for s in runtime.workers.supervisors)
 
 
 def event_loop_runner() -> asyncio.Runner:

@@ -67,16 +67,16 @@ class EdgeNode:
     """One gateway as a Sparkplug B edge node; ``await run()`` until cancelled."""
 
     def __init__(
-        self, gateway: Runtime, settings: MqttSettings, *, commands: DeviceCommands | None = None
+        self, runtime: Runtime, settings: MqttSettings, *, commands: DeviceCommands | None = None
     ) -> None:
-        self.gateway, self.settings = gateway, settings
+        self.runtime, self.settings = runtime, settings
         self.commands = commands if settings.commands else None
         self.table = MetricTable(
-            gateway.topology, gateway.state, commands=self.commands is not None
+            runtime.topology, runtime.state, commands=self.commands is not None
         )
-        self._by_body = {(c.loop, c.body): device_id(c) for c in gateway.topology.controllers()}
+        self._by_body = {(c.loop, c.body): device_id(c) for c in runtime.topology.controllers()}
         # The next connection's bdSeq follows the last one of any process before (the store).
-        self.bd_seq = gateway.store.counters.get(BD_SEQ_COUNTER, -1)
+        self.bd_seq = runtime.store.counters.get(BD_SEQ_COUNTER, -1)
         self.seq = 0
         self.superseded = 0
         self.takeovers = 0
@@ -90,13 +90,13 @@ class EdgeNode:
         self._node_sent: Values = {}
         self._sent: dict[str, Values] = {}  # device -> what its DBIRTH and DDATAs said
         #: loop -> host seconds its line was held by transactions (measured, as /metrics)
-        self.busy: dict[str, float] = {name: 0.0 for name in gateway.schedulers}
+        self.busy: dict[str, float] = {name: 0.0 for name in runtime.schedulers}
         self._busy_mark: dict[str, tuple[float, float]] = {}  # loop -> (busy, host time)
         self._utilisation: dict[str, float | None] = {}
         self._unlisten = [
-            gateway.state.changes.subscribe(self._on_change),
-            gateway.events.subscribe(self._on_event),
-            *(s.events.subscribe(self._on_bus) for s in gateway.schedulers.values()),
+            runtime.state.changes.subscribe(self._on_change),
+            runtime.events.subscribe(self._on_event),
+            *(s.events.subscribe(self._on_bus) for s in runtime.schedulers.values()),
         ]
 
     # ------------------------------------------------------------------ cache -> marks
@@ -127,7 +127,7 @@ class EdgeNode:
         """Operations give the axes' targets."""
         if event.kind is not EventKind.OPERATION or not event.topic.startswith("axis:"):
             return
-        axis = self.gateway.topology.axis(event.topic.partition(":")[2])
+        axis = self.runtime.topology.axis(event.topic.partition(":")[2])
         target = event.data.get("target")
         self.table.targets[axis.id] = target if isinstance(target, int) else None
         self._mark(self._by_body[axis.loop, axis.body])
@@ -156,7 +156,7 @@ class EdgeNode:
             while True:
                 self.bd_seq = (self.bd_seq + 1) % 256
                 try:
-                    await self.gateway.store.set_counter(BD_SEQ_COUNTER, self.bd_seq)
+                    await self.runtime.store.set_counter(BD_SEQ_COUNTER, self.bd_seq)
                 except Exception as exc:  # the session goes on; a restart may repeat this one
                     log.error("mqtt: bdSeq %d not stored: %s", self.bd_seq, exc)
                 try:
@@ -342,7 +342,7 @@ class EdgeNode:
             "MQTT/Dropped Payloads": self.payloads.dropped,
             "MQTT/Takeovers": self.takeovers,
         }
-        for loop in self.gateway.topology.loops():
+        for loop in self.runtime.topology.loops():
             extra[f"Loops/{loop.name}/Line Utilisation"] = self._utilisation.get(loop.name)
             extra[f"Loops/{loop.name}/Busy Seconds"] = round(self.busy.get(loop.name, 0.0), 6)
         return self.table.node_values(self.bd_seq, extra)

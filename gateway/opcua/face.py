@@ -62,7 +62,7 @@ class OpcUaFace:
 
     def __init__(
         self,
-        gateway: Runtime,
+        runtime: Runtime,
         settings: OpcUaSettings,
         *,
         axes: AxisService,
@@ -72,7 +72,7 @@ class OpcUaFace:
         ahead: WriteAhead | None = None,
         state_dir: Any,
     ) -> None:
-        self.gateway, self.settings = gateway, settings
+        self.runtime, self.settings = runtime, settings
         self.methods = Methods(axes, stops, audit, ahead)
         self.users = TokenUsers(lookup, anonymous=settings.anonymous)
         self.state_dir = state_dir
@@ -98,11 +98,11 @@ class OpcUaFace:
             self._loop_changed[loop] = change.time or time.monotonic()
             self._dirty.add(f"loop:{loop}")
             if "up" in change.values:
-                for ctl in self.gateway.topology.controllers(loop):
+                for ctl in self.runtime.topology.controllers(loop):
                     self._dirty.add(ctl.id)
                     self._dirty.update(a.id for a in ctl.axes)
         else:
-            ctl = self.gateway.topology.controller(f"{loop}.{change.body}")
+            ctl = self.runtime.topology.controller(f"{loop}.{change.body}")
             if change.motor is None:
                 self._dirty.add(ctl.id)
                 self._dirty.update(a.id for a in ctl.axes)  # online, stale: the axes too
@@ -121,17 +121,17 @@ class OpcUaFace:
             self._dirty.add(axis)
             self._wake.set()
         elif event.kind is EventKind.CONTROL:
-            self._dirty.update(c.id for c in self.gateway.topology.controllers())
+            self._dirty.update(c.id for c in self.runtime.topology.controllers())
             self._wake.set()
 
     def _shown(self, owner: str) -> dict[str, Shown]:
-        topology = self.gateway.topology
+        topology = self.runtime.topology
         if owner.startswith("loop:"):
-            return loop_values(self.gateway, owner[5:], self._loop_changed.get(owner[5:]))
+            return loop_values(self.runtime, owner[5:], self._loop_changed.get(owner[5:]))
         if owner.count(".") == 2:
-            return axis_values(self.gateway, topology.axis(owner), self.targets.get(owner))
+            return axis_values(self.runtime, topology.axis(owner), self.targets.get(owner))
         ref = topology.controller(owner)
-        shown = controller_values(self.gateway, ref, self._loop_changed.get(ref.loop))
+        shown = controller_values(self.runtime, ref, self._loop_changed.get(ref.loop))
         return shown
 
     async def _write(self, owner: str) -> None:
@@ -198,14 +198,14 @@ class OpcUaFace:
             await self.server.load_private_key(str(key))
         if settings.trusted_clients is not None:
             await self._trust(settings.trusted_clients)
-        self.nodes = await build(self.server, self.gateway.topology)
+        self.nodes = await build(self.server, self.runtime.topology)
         await self._add_methods(self.nodes)
         self._unlisten = [
-            self.gateway.state.changes.subscribe(self._on_change),
-            self.gateway.events.subscribe(self._on_event),
+            self.runtime.state.changes.subscribe(self._on_change),
+            self.runtime.events.subscribe(self._on_event),
         ]
         # the loops' state as the face finds it: its source time is now (a change sets it)
-        self._loop_changed = {loop.name: time.monotonic() for loop in self.gateway.topology.loops()}
+        self._loop_changed = {loop.name: time.monotonic() for loop in self.runtime.topology.loops()}
         self._dirty.update(
             self.nodes.variables.keys()
             - {k for k in self.nodes.variables if k.endswith("/Identification")}

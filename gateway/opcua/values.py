@@ -107,11 +107,11 @@ class Target:
     time: float
 
 
-def axis_values(gateway: Runtime, ref: AxisRef, target: Target | None) -> dict[str, Shown]:
+def axis_values(runtime: Runtime, ref: AxisRef, target: Target | None) -> dict[str, Shown]:
     """Every variable of axis ``ref``; ``target`` its latest operation's target."""
-    line = gateway.state.loop(ref.loop)
-    ctl = gateway.state.controller(ref.loop, ref.body)
-    state = gateway.state.axis(ref.loop, ref.body, ref.motor)
+    line = runtime.state.loop(ref.loop)
+    ctl = runtime.state.controller(ref.loop, ref.body)
+    state = runtime.state.axis(ref.loop, ref.body, ref.motor)
     when = wall_time(state.updated)
 
     def read(value: Any) -> Shown:
@@ -151,12 +151,12 @@ def _target(ref: AxisRef, target: Target | None) -> Shown:
 
 
 def controller_values(
-    gateway: Runtime, ref: ControllerRef, line_changed: float | None = None
+    runtime: Runtime, ref: ControllerRef, line_changed: float | None = None
 ) -> dict[str, Shown]:
     """Every variable of controller ``ref`` (its nameplate's revision too); ``line_changed``
     the time of its loop record's latest change (``loop_values``)."""
-    line = gateway.state.loop(ref.loop)
-    ctl = gateway.state.controller(ref.loop, ref.body)
+    line = runtime.state.loop(ref.loop)
+    ctl = runtime.state.controller(ref.loop, ref.body)
     when = wall_time(ctl.updated)
     up = line.up
 
@@ -171,7 +171,7 @@ def controller_values(
     if not up:
         # the line down: certainly not online, since the line went down
         online = Shown(False, GOOD, wall_time(line.updated or line_changed))
-    local = gateway.control.view(ref).state is ControlState.LOCAL
+    local = runtime.control.view(ref).state is ControlState.LOCAL
     return {
         "Online": online,
         "Mode": read(ctl.mode),
@@ -182,11 +182,11 @@ def controller_values(
     }
 
 
-def loop_values(gateway: Runtime, name: str, changed: float | None = None) -> dict[str, Shown]:
+def loop_values(runtime: Runtime, name: str, changed: float | None = None) -> dict[str, Shown]:
     """Every variable of loop ``name``: its line and its counters. ``changed``: the time of the
     loop record's latest change, the source time when the record has no ``updated`` of its
     own (the line's state and the counters are not readings of a controller)."""
-    state = gateway.state.loop(name)
+    state = runtime.state.loop(name)
     when = wall_time(state.updated if state.updated is not None else changed)
     shown = {
         "LineUp": Shown(state.up, GOOD, when),

@@ -85,14 +85,14 @@ class BaudChange(BaseModel):
 class BaudChanger:
     """Moves the controllers of a loop and the gateway's port to another rate."""
 
-    def __init__(self, gateway: Runtime) -> None:
-        self.gateway = gateway
+    def __init__(self, runtime: Runtime) -> None:
+        self.runtime = runtime
         self._busy: set[str] = set()
 
     async def change(self, loop: str, baud: int) -> BaudChange:
         """Move loop ``loop`` to ``baud`` (module docstring)."""
-        ref = self.gateway.topology.loop(loop)
-        scheduler = self.gateway.scheduler(ref.name)
+        ref = self.runtime.topology.loop(loop)
+        scheduler = self.runtime.scheduler(ref.name)
         old = scheduler.timing.baud
         if baud not in BAUD_CODES:
             rates = ", ".join(str(r) for r in BAUD_RATES)
@@ -127,9 +127,9 @@ class BaudChanger:
     def _check(self, controllers: tuple[ControllerRef, ...], scheduler: LineScheduler) -> None:
         if scheduler.state is not LinkState.UP:
             raise scheduler.down_error()
-        state = self.gateway.state
+        state = self.runtime.state
         for ref in controllers:
-            self.gateway.control.check(ref, f"change the baud rate of loop {ref.loop}")
+            self.runtime.control.check(ref, f"change the baud rate of loop {ref.loop}")
             ctl = state.controller(ref.loop, ref.body)
             if ctl.online is not True:
                 raise ConflictError(
@@ -150,26 +150,26 @@ class BaudChanger:
     async def _held_move(
         self, loop: str, controllers: tuple[ControllerRef, ...], old: int, baud: int
     ) -> BaudChange:
-        scheduler = self.gateway.scheduler(loop)
+        scheduler = self.runtime.scheduler(loop)
         try:
             with self._held(loop):
-                await self.gateway.pollers[loop].stop()
+                await self.runtime.pollers[loop].stop()
                 try:
                     return await self._move(controllers, scheduler, old, baud)
                 finally:
-                    self.gateway.pollers[loop].start()
+                    self.runtime.pollers[loop].start()
         finally:
             self._busy.discard(loop)
 
     @contextlib.contextmanager
     def _held(self, loop: str) -> Iterator[None]:
-        control = self.gateway.control
+        control = self.runtime.control
         control.hold(loop, "its baud rate is being changed")
-        self.gateway.key_switches.pause(loop)
+        self.runtime.key_switches.pause(loop)
         try:
             yield
         finally:
-            self.gateway.key_switches.resume(loop)
+            self.runtime.key_switches.resume(loop)
             control.release(loop)
 
     async def _move(

@@ -68,10 +68,10 @@ def required_role(command: Command) -> Role:
 class CommandRunner:
     """Checks and sends commands to controllers of ``gateway``."""
 
-    def __init__(self, gateway: Runtime, leases: LeaseCheck) -> None:
-        self.gateway = gateway
-        self.checks = PreSendChecks(gateway, leases)
-        self.limits = SoftLimits(gateway)
+    def __init__(self, runtime: Runtime, leases: LeaseCheck) -> None:
+        self.runtime = runtime
+        self.checks = PreSendChecks(runtime, leases)
+        self.limits = SoftLimits(runtime)
 
     # ------------------------------------------------------------------ sending
 
@@ -108,7 +108,7 @@ class CommandRunner:
     ) -> TransactionResult:
         """Send without the checks (reads the service makes for itself)."""
         # Stops (S, SS, GES) go at stop priority: ``submit`` sees to that (DESIGN invariant 8).
-        scheduler = self.gateway.scheduler(ref.loop)
+        scheduler = self.runtime.scheduler(ref.loop)
         return await scheduler.submit(ref.body, commands, motor=motor)
 
 

@@ -67,8 +67,8 @@ def _changes_something(command: Command) -> bool:
 class PreSendChecks:
     """The checks of ``gateway``'s requests, with ``leases`` (module docstring)."""
 
-    def __init__(self, gateway: Runtime, leases: LeaseCheck) -> None:
-        self.gateway = gateway
+    def __init__(self, runtime: Runtime, leases: LeaseCheck) -> None:
+        self.runtime = runtime
         self.leases = leases
 
     # ------------------------------------------------------------------ catalog commands
@@ -98,11 +98,11 @@ class PreSendChecks:
         stops (S, SS, GE, GES, GS) pass (``gateway.service.control``)."""
         for command in commands:
             if _changes_something(command) and command.form.effect is not Effect.STOP:
-                self.gateway.control.check(ref, f"send {command.wire()!r}")
+                self.runtime.control.check(ref, f"send {command.wire()!r}")
 
     def state(self, ref: ControllerRef, commands: Sequence[Command]) -> None:
         """The manual's refusals, against the cached state (module docstring)."""
-        ctl = self.gateway.state.controller(ref.loop, ref.body)
+        ctl = self.runtime.state.controller(ref.loop, ref.body)
         for command in commands:
             spec, form = command.spec, command.form
             if ctl.moving and not spec.form_while_moving(form):
@@ -136,10 +136,10 @@ class PreSendChecks:
         not moving (``active``: the operation in progress on its controller, if any)."""
         self.remote(ref, what)
         self.axis_lease(ref, holder)
-        scheduler = self.gateway.scheduler(ref.loop)
+        scheduler = self.runtime.scheduler(ref.loop)
         if scheduler.state is not LinkState.UP:
             raise scheduler.down_error()  # the line first: a dead loop is no busy controller
-        ctl = self.gateway.state.controller(ref.loop, ref.body)
+        ctl = self.runtime.state.controller(ref.loop, ref.body)
         if ctl.online is False:
             raise DeviceError(
                 f"controller {ref.controller_id} does not answer (offline); nothing was sent",
@@ -161,5 +161,5 @@ class PreSendChecks:
 
     def remote(self, ref: AxisRef, what: str) -> None:
         """409 when the axis's controller is in local control (``gateway.service.control``)."""
-        controller = self.gateway.topology.controller(ref.controller_id)
-        self.gateway.control.check(controller, f"{what} {ref.id}")
+        controller = self.runtime.topology.controller(ref.controller_id)
+        self.runtime.control.check(controller, f"{what} {ref.id}")

@@ -66,17 +66,17 @@ class LoopStop(BaseModel):
 class StopAll:
     """Stops of whole controllers and loops of ``gateway``."""
 
-    def __init__(self, gateway: Runtime, operations: StopNotes) -> None:
-        self.gateway = gateway
+    def __init__(self, runtime: Runtime, operations: StopNotes) -> None:
+        self.runtime = runtime
         self.operations = operations
 
     async def controller(self, ident: str, mode: StopMode) -> ControllerStop:
         """Stop controller ``ident`` (id or name): both of its axes."""
-        return await self._stop(self.gateway.topology.controller(ident), mode)
+        return await self._stop(self.runtime.topology.controller(ident), mode)
 
     async def loop(self, name: str, mode: StopMode) -> LoopStop:
         """Stop every controller of loop ``name``, all submitted at once."""
-        ref = self.gateway.topology.loop(name)
+        ref = self.runtime.topology.loop(name)
         stops = await asyncio.gather(*(self._stop(ctl, mode) for ctl in ref.controllers))
         return LoopStop(loop=ref.name, outcome=_overall(stops), stops=list(stops))
 
@@ -92,7 +92,7 @@ class StopAll:
             operation=op.id if op is not None else None,
         )
         try:
-            result = await self.gateway.scheduler(ref.loop).stop(ref.body, command)
+            result = await self.runtime.scheduler(ref.loop).stop(ref.body, command)
         except LoopDown as exc:
             outcome = Outcome.UNKNOWN if exc.in_flight else Outcome.NOT_DONE
             return stop.model_copy(update={"outcome": outcome, "error": str(exc)})

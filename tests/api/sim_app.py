@@ -82,7 +82,7 @@ class Api:
     """A running app, its gateway, the simulated loop behind it and a client."""
 
     app: FastAPI
-    gateway: Runtime
+    runtime: Runtime
     sim: SimLoop
     client: httpx.AsyncClient
     events: list[ServiceEvent]
@@ -130,15 +130,15 @@ class Api:
 
     def cached(self, body: str = "1") -> ControllerState:
         """The state cache's record of controller ``body``."""
-        return self.gateway.state.controller(SIM_LOOP, body)
+        return self.runtime.state.controller(SIM_LOOP, body)
 
     async def until(self, check: Callable[[], bool], timeout: float = WAIT) -> None:
         """Wait until ``check()`` holds, woken by the state cache's changes (no sleeping)."""
-        await until_state(self.gateway.state, check, timeout)
+        await until_state(self.runtime.state, check, timeout)
 
     async def identified(self, bodies: Sequence[str] | None = None) -> None:
         """Every controller read once by the poller (mode known, positions read)."""
-        state = self.gateway.state
+        state = self.runtime.state
 
         def done() -> bool:
             return all(
@@ -174,24 +174,24 @@ async def running_app(
     # The in-process line of ``serve --simulate``: a port reopened at another rate (POST
     # /loops/{loop}/baud) sets the simulated line's, and controllers at another rate hear noise.
     line = sim_line(sim)
-    gateway = Runtime(config, transports={SIM_LOOP: line}, time_scale=scale, store=store)
+    runtime = Runtime(config, transports={SIM_LOOP: line}, time_scale=scale, store=store)
     if roles:
         book = TokenBook(TokenEntry(n, role, hash_token(t)) for n, (t, role) in TOKENS.items())
-        app = create_app(gateway, auth=AuthConfig(book))
+        app = create_app(runtime, auth=AuthConfig(book))
     else:
-        app = create_app(gateway, auth=AuthConfig(no_auth=True))
+        app = create_app(runtime, auth=AuthConfig(no_auth=True))
     if cache_last:
-        for scheduler in gateway.schedulers.values():
-            scheduler.use_state(gateway.state, first=False)
+        for scheduler in runtime.schedulers.values():
+            scheduler.use_state(runtime.state, first=False)
     events: list[ServiceEvent] = []
-    gateway.events.subscribe(events.append)
+    runtime.events.subscribe(events.append)
     try:
         async with app.router.lifespan_context(app):
             transport = httpx.ASGITransport(app=app)
             async with httpx.AsyncClient(
                 transport=transport, base_url=BASE, timeout=WAIT, event_hooks=DECLARE_JSON
             ) as client:
-                api = Api(app, gateway, sim, client, events)
+                api = Api(app, runtime, sim, client, events)
                 await api.identified()
                 yield api
     finally:

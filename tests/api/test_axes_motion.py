@@ -89,7 +89,7 @@ async def test_signed_management_writes_the_sign() -> None:
         r = await api.client.post("/axes/x/move?wait=true", json={"position": 100, "unit": "pulse"})
         assert json_of(r)["state"] == "done"
         # EP1 set behind the gateway's back (another client): the reply teaches the format.
-        sched = api.gateway.scheduler("sim")
+        sched = api.runtime.scheduler("sim")
         from gateway.protocol.registry import parse
 
         await sched.submit("1", parse("EP1"))

@@ -25,7 +25,7 @@ JSON = {"Content-Type": "application/json"}
 async def api() -> AsyncIterator[Api]:
     """The app with its poller stopped: whatever the line hears then, a request sent it."""
     async with running_app(("1", "2")) as api:
-        await api.gateway.pollers["sim"].stop()
+        await api.runtime.pollers["sim"].stop()
         # A read queues behind the poll the stop abandoned: once answered, the line is quiet.
         assert (await api.client.get("/axes/sim.2.1?fresh=true")).status_code == 200
         yield api

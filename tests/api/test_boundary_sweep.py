@@ -201,7 +201,7 @@ def cases(document: dict[str, Any]) -> list[Case]:
 @pytest.fixture
 async def api(tmp_path: Path) -> AsyncIterator[Api]:
     async with running_app(("1", "2"), audit_log=tmp_path / "audit.jsonl") as api:
-        await api.gateway.pollers["sim"].stop()
+        await api.runtime.pollers["sim"].stop()
         # A read queues behind the poll the stop abandoned: once answered, the line is quiet.
         assert (await api.client.get("/axes/sim.1.1?fresh=true")).status_code == 200
         yield api

@@ -40,7 +40,7 @@ def _moves(heard: list[str]) -> list[str]:
 
 async def _changes(api: Api) -> asyncio.Queue[ControlChange]:
     queue: asyncio.Queue[ControlChange] = asyncio.Queue()
-    api.gateway.control.changes.subscribe(queue.put_nowait)
+    api.runtime.control.changes.subscribe(queue.put_nowait)
     return queue
 
 
@@ -200,9 +200,9 @@ async def test_viewer_and_operator_may_not_change_the_state(api: Api) -> None:
 async def test_the_key_switch_input_puts_the_controller_in_local() -> None:
     async with running_app(("1", "2"), roles=True, config=_config_with_key_switch()) as api:
         changes = await _changes(api)
-        ctl = api.gateway.topology.controller("sim.1")
+        ctl = api.runtime.topology.controller("sim.1")
         # Read once by now, or soon: the switch is off, so the controller ends remote.
-        while api.gateway.control.state(ctl).value != "remote":
+        while api.runtime.control.state(ctl).value != "remote":
             await asyncio.wait_for(changes.get(), WAIT)
         view = json_of(await api.client.get("/controllers/sim.1", headers=auth("viewer")))
         assert view["control"]["key_switch"]["bit"] == KEY_BIT

@@ -43,11 +43,11 @@ async def test_a_counter_wrapped_below_zero_is_the_negative_position_it_is() -> 
         r = await api.client.post("/axes/x/jog", json={"direction": "ccw", "speed": "high"})
         assert r.status_code in (200, 202), r.text
         jog = json_of(r)["id"]
-        await api.until(lambda: api.gateway.state.axis("sim", "1", 1).moving is True)
+        await api.until(lambda: api.runtime.state.axis("sim", "1", 1).moving is True)
         # The jog runs into the CCW limit sensor; its operation ends once that is seen, which
         # may be a poll after the axis reads still (a move before that is a 409 "moving").
         await api.operations.wait(jog, 30)
-        assert api.gateway.state.axis("sim", "1", 1).moving is False
+        assert api.runtime.state.axis("sim", "1", 1).moving is False
         view = json_of(await api.client.get("/axes/x", params={"fresh": "true"}))
         counter = api.position("1", 1)  # the simulator's counter, as EP0 reads it
         device = counter - SPAN  # the machine stands past 0, at the CCW limit sensor

@@ -124,7 +124,7 @@ async def test_rest_fault_campaign_reports_every_move_truthfully() -> None:
             if done and event.data["axis"] in still_moving(api):
                 early.append(event.data["id"])
 
-        api.gateway.events.subscribe(on_event)
+        api.runtime.events.subscribe(on_event)
         api.sim.faults = noisy(11)
         began = time.monotonic()
         budget, seen = [REQUESTS], Counter[str]()
@@ -180,7 +180,7 @@ def _step(op: Operation) -> int:
 def print_figures(
     api: Api, seen: Counter[str], states: Counter[str], unsure: list[Operation], wall: float
 ) -> None:
-    counters = api.gateway.scheduler("sim").snapshot()
+    counters = api.runtime.scheduler("sim").snapshot()
     faults = Counter(r["kind"] for r in api.sim.faults.describe())
     print(
         f"\nREST fault campaign: {sum(seen.values())} requests from {CLIENTS} clients, {wall:.1f} s"

@@ -26,7 +26,7 @@ WAIT = 30.0
 async def until_event(api: Api, check: Any, timeout: float = WAIT) -> None:
     """Wait until ``check()`` holds, woken by every service event (no sleeping)."""
     seen = asyncio.Event()
-    stop = api.gateway.events.subscribe(lambda _e: seen.set())
+    stop = api.runtime.events.subscribe(lambda _e: seen.set())
     try:
         async with asyncio.timeout(timeout):
             while not check():
@@ -113,7 +113,7 @@ async def test_a_jog_whose_controller_alone_went_silent_is_stopped_when_it_answe
         await until_event(api, lambda: api.operations.get(ident).state is OperationState.UNKNOWN)
         lost = json_of(await api.client.get(f"/operations/{ident}"))
         assert lost["state"] == "unknown" and lost["error"]["kind"] == "offline", lost
-        assert api.gateway.ready()  # the loop itself is up
+        assert api.runtime.ready()  # the loop itself is up
         assert jogging(api)
         # Silent is not switched off: the gateway does not say the controller stands still.
         assert api.cached("1").online is False and api.cached("1").moving is None
@@ -154,7 +154,7 @@ async def test_a_move_whose_line_was_cut_is_not_stopped_when_the_loop_comes_back
         await until_event(api, lambda: api.operations.get(ident).state is OperationState.UNKNOWN)
         mark = api.mark()
         api.sim.act(lambda now: api.sim.set_cut(False, now))
-        await api.until(lambda: api.gateway.ready() and api.cached("1").online is True)
+        await api.until(lambda: api.runtime.ready() and api.cached("1").online is True)
         # The poller's reads after the link-up have gone out; a stop would have gone first.
         await until_event(api, lambda: len(api.heard("1", mark)) >= 3)
         assert "SS" not in api.heard("1", mark) and "S" not in api.heard("1", mark)
@@ -181,7 +181,7 @@ async def test_a_jog_whose_stop_is_not_taken_after_the_outage_stays_unknown(
         # (Over HTTP the dead loop answers 503 first, and after the link-up the controller off.)
         with pytest.raises(ConflictError, match=ident):
             await api.operations.run(
-                api.gateway.topology.axis("y"), "move", {}, (), motor=2, holder="test"
+                api.runtime.topology.axis("y"), "move", {}, (), motor=2, holder="test"
             )
         Controls(api.sim).power("1", False)
         api.sim.act(lambda now: api.sim.set_cut(False, now))

@@ -39,7 +39,7 @@ def link_events(events: list[ServiceEvent], since: int = 0) -> list[dict[str, An
 async def until_event(api: Api, check: Any, timeout: float) -> None:
     """Wait until ``check(events)`` holds, woken by every service event (no sleeping)."""
     seen = asyncio.Event()
-    stop = api.gateway.events.subscribe(lambda _e: seen.set())
+    stop = api.runtime.events.subscribe(lambda _e: seen.set())
     try:
         async with asyncio.timeout(timeout):
             while not check(api.events):
@@ -92,7 +92,7 @@ async def test_a_cut_line_is_down_once_answers_503_and_is_ready_when_restored() 
         assert r.status_code == 200, r.text
         # One down and one up for the outage: no cycling while it lasted.
         assert [e["up"] for e in link_events(api.events, mark)] == [False, True]
-        assert api.gateway.scheduler(SIM_LOOP).snapshot().link_downs == 1
+        assert api.runtime.scheduler(SIM_LOOP).snapshot().link_downs == 1
 
 
 async def test_a_dead_loop_is_not_a_moving_axis() -> None:
@@ -109,7 +109,7 @@ async def test_a_dead_loop_is_not_a_moving_axis() -> None:
         # Nothing the loop last said is current: moving and online unknown, axes stale.
         ctl = api.cached("3")
         assert ctl.moving is None and ctl.online is None
-        assert api.gateway.state.axis(SIM_LOOP, "3", 1).stale
+        assert api.runtime.state.axis(SIM_LOOP, "3", 1).stale
         r = await api.client.post(
             "/axes/sim.3.2/move", json={"position": 5, "relative": True, "unit": "pulse"}
         )
@@ -121,7 +121,7 @@ async def test_ems_on_an_idle_controller_is_seen_within_one_status_poll() -> Non
     async with running_app(scale=EMS_SCALE) as api:
         await api.identified()
         pressed_at = api.sim.act(lambda now: api.device("2").set_ems(now, True))
-        await api.until(lambda: api.gateway.state.axis(SIM_LOOP, "2", 1).emergency)
+        await api.until(lambda: api.runtime.state.axis(SIM_LOOP, "2", 1).emergency)
         seen_at = sim_now(api)
         # The idle poll period is 1 s; the poll that sees it may be one transaction late.
         late = seen_at - pressed_at
@@ -142,14 +142,14 @@ async def test_ems_on_an_idle_controller_is_seen_while_the_others_move() -> None
             assert r.status_code == 202, r.text
         await api.until(lambda: api.cached("1").moving and api.cached("3").moving)
         pressed_at = api.sim.act(lambda now: api.device("2").set_ems(now, True))
-        await api.until(lambda: api.gateway.state.axis(SIM_LOOP, "2", 1).emergency)
+        await api.until(lambda: api.runtime.state.axis(SIM_LOOP, "2", 1).emergency)
         seen_at = sim_now(api)
         assert api.cached("1").moving and api.cached("3").moving  # still moving: it counted
         late = seen_at - pressed_at
         assert late <= EMS_SEEN_WITHIN, f"EMS seen {late:.2f} s late"
         # A moving controller's EMS too, within its moving polls.
         pressed_at = api.sim.act(lambda now: api.device("3").set_ems(now, True))
-        await api.until(lambda: api.gateway.state.axis(SIM_LOOP, "3", 1).emergency)
+        await api.until(lambda: api.runtime.state.axis(SIM_LOOP, "3", 1).emergency)
         seen_at = sim_now(api)
         late = seen_at - pressed_at
         assert late <= EMS_SEEN_WITHIN, f"EMS seen {late:.2f} s late"

@@ -68,7 +68,7 @@ async def test_a_controller_that_does_not_answer_at_the_new_rate_sends_the_other
     async with running_app(("1", "2"), roles=True) as api:
         # The poller off first, so that the armed fault meets the ES frame: controller 2 takes
         # its ES1 (written to its EEPROM, §10 ES), answers '>' and loses its power for long.
-        await api.gateway.pollers["sim"].stop()
+        await api.runtime.pollers["sim"].stop()
         Controls(api.sim).fault("power", body="2", shots=1, hold=100_000.0)
         mark = api.mark()
         r = await api.client.post("/loops/sim/baud", json={"baud": 1200}, headers=auth("admin"))
@@ -94,7 +94,7 @@ async def test_a_controller_that_does_not_answer_at_the_new_rate_sends_the_other
 
 async def test_bad_rates_and_roles_are_refused_before_anything_is_sent() -> None:
     async with running_app(("1",), roles=True) as api:
-        await api.gateway.pollers["sim"].stop()
+        await api.runtime.pollers["sim"].stop()
         mark = api.mark()
         for baud in (4800, 9600, "1200"):
             r = await api.client.post("/loops/sim/baud", json={"baud": baud}, headers=auth("admin"))
@@ -114,7 +114,7 @@ async def test_bad_rates_and_roles_are_refused_before_anything_is_sent() -> None
 
 async def test_the_loop_is_held_while_its_rate_changes() -> None:
     async with running_app(("1",), roles=True) as api:
-        scheduler = api.gateway.scheduler("sim")
+        scheduler = api.runtime.scheduler("sim")
         reopening = asyncio.Event()
         scheduler.events.subscribe(lambda e: reopening.set() if isinstance(e, LinkDown) else None)
         change = asyncio.create_task(

@@ -24,7 +24,7 @@ async def test_axes_and_controllers_each_have_their_series() -> None:
         response = await api.client.post("/axes/x/move", json={"position": 1500, "unit": "pulse"},
                                           params={"wait": "true"})  # fmt: skip
         assert response.status_code == 200, response.text
-        await api.until(lambda: api.gateway.state.axis(SIM_LOOP, "1", 1).position == 1500)
+        await api.until(lambda: api.runtime.state.axis(SIM_LOOP, "1", 1).position == 1500)
         fams = await _scrape(api)
         assert value(fams, "rc233_axis_position_pulses", axis="sim.1.1") == 1500
         assert value(fams, "rc233_axis_moving", axis="sim.1.1") == 0
@@ -48,14 +48,14 @@ async def test_ems_latches_on_the_axis_series_and_a_silent_controller_has_no_pos
     async with running_app() as api:
         controls = Controls(api.sim)
         controls.ems("2", True)
-        await api.until(lambda: api.gateway.state.axis(SIM_LOOP, "2", 1).emergency)
+        await api.until(lambda: api.runtime.state.axis(SIM_LOOP, "2", 1).emergency)
         fams = await _scrape(api)
         assert value(fams, "rc233_axis_error_latched", axis="sim.2.1", kind="emergency_stop") == 1
         latched = value(fams, "rc233_controller_error_latched", controller="sim.2", name="head",
                         kind="emergency_stop")  # fmt: skip
         assert latched == 1
         controls.power("3", False)
-        await api.until(lambda: api.gateway.state.controller(SIM_LOOP, "3").online is False)
+        await api.until(lambda: api.runtime.state.controller(SIM_LOOP, "3").online is False)
         fams = await _scrape(api)
         assert value(fams, "rc233_controller_online", controller="sim.3", name="handler") == 0
         assert value(fams, "rc233_axis_stale", axis="sim.3.1") == 1

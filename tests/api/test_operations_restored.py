@@ -149,7 +149,7 @@ async def test_a_home_left_in_flight_is_not_stopped(tmp_path: Path) -> None:
 
 async def test_a_motion_that_cannot_be_recorded_is_refused_and_not_sent() -> None:
     async with running_app() as api:
-        store = api.gateway.store
+        store = api.runtime.store
 
         def full(connection: sqlite3.Connection) -> None:
             # The database may grow no more, and its last page is filled: SQLITE_FULL from
@@ -174,7 +174,7 @@ async def test_a_motion_that_cannot_be_recorded_is_refused_and_not_sent() -> Non
 
 async def test_a_request_gone_before_its_record_is_written_sends_nothing() -> None:
     async with running_app() as api:
-        store = api.gateway.store
+        store = api.runtime.store
         disk = threading.Event()
         store.post(lambda _c: disk.wait(WAIT))  # a slow disk: the store's thread is held
         mark = api.mark()

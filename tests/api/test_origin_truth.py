@@ -164,7 +164,7 @@ async def test_an_idle_controller_reset_is_seen_without_any_request() -> None:
         events = len(api.events)
         Controls(api.sim).power_cycle("1")
         # The poller's next reading of 0 is read again at once, and the reset is seen.
-        await api.until(lambda: api.gateway.state.axis("sim", "1", 1).origin.value == "lost")
+        await api.until(lambda: api.runtime.state.axis("sim", "1", 1).origin.value == "lost")
         assert any(e.kind is EventKind.ORIGIN for e in api.events[events:])
 
 
@@ -181,9 +181,9 @@ async def test_a_controller_reset_makes_the_selection_unknown_so_motor_2_is_sele
             "/controllers/sim.1/commands", params={"motor": 2}, json={"command": "OH"}
         )
         assert r.status_code == 200, r.text
-        assert api.gateway.state.controller("sim", "1").selection_confirmed  # motor 2, known
+        assert api.runtime.state.controller("sim", "1").selection_confirmed  # motor 2, known
         Controls(api.sim).power_cycle("1")
-        await api.until(lambda: api.gateway.state.axis("sim", "1", 2).origin == Origin.LOST)
+        await api.until(lambda: api.runtime.state.axis("sim", "1", 2).origin == Origin.LOST)
         mark = api.mark()
         r = await api.client.post(
             "/controllers/sim.1/commands", params={"motor": 2}, json={"command": "OH"}
@@ -201,7 +201,7 @@ async def test_a_preset_from_outside_the_gateway_to_zero_loses_the_origin() -> N
         r = await move(api, "x", 3000, "pulse")
         assert r.status_code == 200, r.text  # type: ignore[attr-defined]
         Controls(api.sim).preset("1", 1, 0)
-        await api.until(lambda: api.gateway.state.axis("sim", "1", 1).origin == Origin.LOST)
+        await api.until(lambda: api.runtime.state.axis("sim", "1", 1).origin == Origin.LOST)
         view = json_of(await api.client.get("/axes/x"))
         assert (view["origin"], view["position"], view["counter"]) == ("lost", 0, 0)
         # the view keeps why, for a client that was not listening when it happened

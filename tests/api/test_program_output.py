@@ -39,7 +39,7 @@ def printed(api: Api) -> list[ServiceEvent]:
 async def until_printed(api: Api, check: Callable[[list[ServiceEvent]], bool]) -> None:
     """Wait (on the gateway's events, no sleeping) until ``check(printed)`` holds."""
     seen = asyncio.Event()
-    stop = api.gateway.events.subscribe(lambda _event: seen.set())
+    stop = api.runtime.events.subscribe(lambda _event: seen.set())
     try:
         async with asyncio.timeout(WAIT):
             while not check(printed(api)):

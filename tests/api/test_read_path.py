@@ -29,7 +29,7 @@ async def api() -> AsyncIterator[Api]:
 
 
 def _record(api: Api, body: str = "1", motor: int = 1) -> AxisState:
-    return api.gateway.state.axis(SIM_LOOP, body, motor)
+    return api.runtime.state.axis(SIM_LOOP, body, motor)
 
 
 async def _both(api: Api, ident: str) -> tuple[httpx.Response, httpx.Response]:
@@ -140,7 +140,7 @@ async def test_the_layer_answers_only_a_plain_read_of_a_known_axis_by_a_known_ca
     api: Api,
 ) -> None:
     routed = _Routed()
-    layer = AxisReadPath(routed, api.gateway, "/api/v1")
+    layer = AxisReadPath(routed, api.runtime, "/api/v1")
 
     async def call(path: str, query: bytes = b"", headers: Any = ()) -> tuple[int, bytes]:
         sent: list[dict[str, Any]] = []

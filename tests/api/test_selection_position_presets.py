@@ -13,7 +13,7 @@ async def test_a_preset_through_commands_is_stale_until_read_back_then_right() -
         before = (await api.client.get("/axes/sim.1.1")).json()
         assert before["position"] == 0 and before["stale"] is False, before
         changes: list[Change] = []
-        stop = api.gateway.state.changes.subscribe(changes.append)
+        stop = api.runtime.state.changes.subscribe(changes.append)
         try:
             r = await api.client.post(
                 "/controllers/sim.1/commands",

@@ -25,7 +25,7 @@ async def test_after_a_program_moved_motor_2_a_rest_move_of_motor_1_selects_moto
             "/controllers/sim.1/commands", params={"motor": 1}, json={"command": "OH"}
         )
         assert r.status_code == 200, r.text
-        assert api.gateway.state.controller("sim", "1").selection_confirmed
+        assert api.runtime.state.controller("sim", "1").selection_confirmed
         r = await api.client.put(PROGRAM, json={"text": MOTOR_2_PROGRAM})
         assert r.status_code == 200, r.text
         r = await api.client.post(f"{PROGRAM}/run", json={})
@@ -53,14 +53,14 @@ async def test_a_programs_motion_is_shown_on_the_motor_that_moves() -> None:
         )
         assert r.status_code == 200, r.text  # motor 1 selected, and known so
         changes: list[Change] = []
-        stop = api.gateway.state.changes.subscribe(changes.append)
+        stop = api.runtime.state.changes.subscribe(changes.append)
         try:
             r = await api.client.put(PROGRAM, json={"text": "/F2/240000/3///END"})
             assert r.status_code == 200, r.text
             r = await api.client.post(f"{PROGRAM}/run", json={})
             assert r.status_code == 200, r.text
             await api.until(lambda: api.position("1", 2) == 40000, timeout=60)
-            await api.until(lambda: not api.gateway.state.axis("sim", "1", 2).moving, timeout=30)
+            await api.until(lambda: not api.runtime.state.axis("sim", "1", 2).moving, timeout=30)
         finally:
             stop()
         one = [dict(c.values) for c in changes if (c.body, c.motor) == ("1", 1)]

@@ -97,7 +97,7 @@ async def _wait(api: Any, check: Callable[[], bool]) -> None:
     """Until ``check()`` holds (the server closes what clients left on its own time), at
     most 30 s: the assertions after it say what was left."""
     with contextlib.suppress(TimeoutError):
-        await until_state(api.gateway.state, check, 30)
+        await until_state(api.runtime.state, check, 30)
 
 
 @pytest.mark.timeout(120)
@@ -105,7 +105,7 @@ async def test_clients_that_come_and_go_leave_no_task_socket_or_table_entry() ->
     async with running_app() as api:
         options = uvicorn_connection_options(ConnectionSettings())
         book: ConnectionBook = options["http"].book
-        options |= ws.uvicorn_ws_options(api.gateway.config.ws)
+        options |= ws.uvicorn_ws_options(api.runtime.config.ws)
         server, port = await start_uvicorn(api.app, **options)
         try:
             # One of each first: whatever is made once, on first use, is made now.

@@ -23,7 +23,7 @@ async def test_memory_keeps_its_bound_and_older_operations_come_from_the_store()
             r = await api.client.post(f"/axes/{axis}/step?wait=true", json={"direction": "cw"})
             assert r.status_code == 200, r.text
             ids.append(json_of(r)["id"])
-        await api.gateway.store.run(lambda c: None)  # the posted state writes are done
+        await api.runtime.store.run(lambda c: None)  # the posted state writes are done
         kept = api.operations.list(limit=100)
         assert len(kept) == 3
         # an ended operation keeps what it did, not the command models it sent
@@ -53,7 +53,7 @@ async def test_a_forgotten_operation_lets_go_of_its_finished_event() -> None:
             r = await api.client.post(f"/axes/{axis}/step?wait=true", json={"direction": "cw"})
             assert r.status_code == 200, r.text
             events.append(weakref.ref(api.operations.get(json_of(r)["id"]).finished))
-        await api.gateway.store.run(lambda c: None)
+        await api.runtime.store.run(lambda c: None)
         gc.collect()
         alive = [ref() is not None for ref in events]
         assert alive == [False] * 4 + [True] * 2  # the two kept ones only

@@ -31,7 +31,7 @@ async def node_on(api: Api, port: int, *, commands: bool) -> AsyncIterator[EdgeN
     )
     auth = api.app.state.auth
     handler = DeviceCommands(api.app.state.axes, auth.book.lookup, api.app.state.audit.record)
-    node = EdgeNode(api.gateway, settings, commands=handler)
+    node = EdgeNode(api.runtime, settings, commands=handler)
     task = asyncio.create_task(node.run())
     try:
         await asyncio.wait_for(node.connected.wait(), 20)

@@ -33,7 +33,7 @@ def _entries(path: Path) -> list[dict[str, Any]]:
 async def test_a_flood_of_metrics_is_one_short_line_with_the_sha256_of_the_whole(tmp_path: Path):
     path = tmp_path / "audit.jsonl"
     async with running_app(("1",), roles=True, audit_log=path) as api:
-        ctl = api.gateway.topology.controller("sim.1")
+        ctl = api.runtime.topology.controller("sim.1")
         metrics: dict[str, Value] = {f"Axis/x/M{i}": True for i in range(200_000)}
         whole = json.dumps(dict(metrics), ensure_ascii=False).encode()
         status, _ = await _handler(api).handle(TOPIC, ctl, {"x": "sim.1.1"}, metrics)
@@ -49,7 +49,7 @@ async def test_a_flood_of_metrics_is_one_short_line_with_the_sha256_of_the_whole
 async def test_a_dcmd_stop_is_written_ahead_and_passes_when_the_file_fails(tmp_path: Path):
     path = tmp_path / "audit.jsonl"
     async with running_app(("1",), roles=True, audit_log=path) as api:
-        ctl = api.gateway.topology.controller("sim.1")
+        ctl = api.runtime.topology.controller("sim.1")
         handler = _handler(api)
         token = TOKENS["operator"][0]
         stop: dict[str, Value] = {"Command/Token": token, "Axis/x/Stop": True}

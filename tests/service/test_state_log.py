@@ -56,7 +56,7 @@ class Recorder(logging.Handler):
 
 @dataclass
 class Running:
-    gateway: Runtime
+    runtime: Runtime
     controls: Controls
     log: Recorder
     now: list[float]
@@ -65,25 +65,25 @@ class Running:
 @asynccontextmanager
 async def running(summary_period: float = 60.0) -> AsyncIterator[Running]:
     sim = build_loop(["1", "2"], clock=SimClock(SCALE))
-    gateway = Runtime(
+    runtime = Runtime(
         simulated_config(["1", "2"]),
         transports={SIM_LOOP: PipeTransport(lambda: SimPort(sim))},
         time_scale=SCALE,
     )
     now = [1000.0]
-    state_log = StateLog(gateway, summary_period=summary_period, clock=lambda: now[0])
+    state_log = StateLog(runtime, summary_period=summary_period, clock=lambda: now[0])
     recorder = Recorder()
     logger = logging.getLogger("gateway.state")
     logger.addHandler(recorder)
     logger.setLevel(logging.INFO)
     state_log.start()
     try:
-        await gateway.start()
-        yield Running(gateway, Controls(sim), recorder, now)
+        await runtime.start()
+        yield Running(runtime, Controls(sim), recorder, now)
     finally:
         state_log.stop()
         logger.removeHandler(recorder)
-        await gateway.close()
+        await runtime.close()
         sim.close()
 
 
@@ -93,7 +93,7 @@ async def test_a_controller_switched_off_is_one_line_down_and_one_line_back() ->
         assert sorted(r.getMessage() for r in online) == [
             "controller sim.1 online", "controller sim.2 online",
         ]  # fmt: skip
-        state = run.gateway.state
+        state = run.runtime.state
         run.controls.power("2", on=False)
         await until_state(state, lambda: state.controller(SIM_LOOP, "2").online is False, WAIT)
         (offline,) = await run.log.wait_for("controller_offline")
@@ -101,9 +101,9 @@ async def test_a_controller_switched_off_is_one_line_down_and_one_line_back() ->
         assert offline.getMessage() == "controller sim.2 offline: it does not answer"
         assert (offline.loop, offline.controller) == ("sim", "sim.2")  # type: ignore[attr-defined]
         # Many polls of the silent controller later: still one line.
-        polls = run.gateway.loop_counters(SIM_LOOP).transactions
+        polls = run.runtime.loop_counters(SIM_LOOP).transactions
         await until_state(
-            state, lambda: run.gateway.loop_counters(SIM_LOOP).transactions > polls + 10, WAIT
+            state, lambda: run.runtime.loop_counters(SIM_LOOP).transactions > polls + 10, WAIT
         )
         assert len(run.log.events("controller_offline")) == 1
         run.controls.power("2", on=True)
@@ -117,8 +117,8 @@ async def test_line_faults_are_summarised_once_a_period() -> None:
     async with running(summary_period=60.0) as run:
         await run.log.wait_for("controller_online", 2)
         run.controls.fault("nak", shots=3)
-        state = run.gateway.state
-        await until_state(state, lambda: run.gateway.loop_counters(SIM_LOOP).naks >= 3, WAIT)
+        state = run.runtime.state
+        await until_state(state, lambda: run.runtime.loop_counters(SIM_LOOP).naks >= 3, WAIT)
         assert run.log.events("line_faults") == []  # the period has not passed
         run.now[0] += 60.0
         (summary,) = await run.log.wait_for("line_faults")
@@ -127,9 +127,9 @@ async def test_line_faults_are_summarised_once_a_period() -> None:
         assert "3 '?' replies" in summary.getMessage()
         # Another period with no fault: no line.
         run.now[0] += 60.0
-        transactions = run.gateway.loop_counters(SIM_LOOP).transactions
+        transactions = run.runtime.loop_counters(SIM_LOOP).transactions
         await until_state(
-            state, lambda: run.gateway.loop_counters(SIM_LOOP).transactions > transactions + 3, WAIT
+            state, lambda: run.runtime.loop_counters(SIM_LOOP).transactions > transactions + 3, WAIT
         )
         assert len(run.log.events("line_faults")) == 1
 
@@ -138,7 +138,7 @@ async def test_loop_up_again_names_how_long_it_was_down() -> None:
     async with running() as run:
         (first,) = await run.log.wait_for("loop_up")
         assert first.getMessage() == "loop sim up"
-        events = run.gateway.schedulers[SIM_LOOP].events
+        events = run.runtime.schedulers[SIM_LOOP].events
         events.publish(LinkDown(loop=SIM_LOOP, cause="no answer from any controller"))
         run.now[0] += 12.5
         events.publish(LinkDown(loop=SIM_LOOP, cause="cannot open the port"))  # a retry

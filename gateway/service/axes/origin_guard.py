@@ -49,13 +49,13 @@ def reading_is_current(axis: AxisState) -> bool:
 class OriginGuard:
     """The origin check of the moves that need it."""
 
-    def __init__(self, gateway: Runtime) -> None:
-        self.gateway = gateway
+    def __init__(self, runtime: Runtime) -> None:
+        self.runtime = runtime
 
     def check(self, ref: AxisRef, what: str, field: str = "axis") -> None:
         """Refuse (409, ``HOME_FIRST_RULE``) when ``ref``'s origin is lost."""
-        ctl = self.gateway.state.controller(ref.loop, ref.body)
-        axis = self.gateway.state.axis(ref.loop, ref.body, ref.motor)
+        ctl = self.runtime.state.controller(ref.loop, ref.body)
+        axis = self.runtime.state.axis(ref.loop, ref.body, ref.motor)
         if axis.origin is Origin.LOST:
             cause = f" ({ctl.reset_cause})" if ctl.reset_cause else ""
             raise ConflictError(
@@ -70,12 +70,12 @@ class OriginGuard:
         the move if the origin is lost, and return the position read (pulses, followed
         through the counter's wraps)."""
         self.check(ref, what, field)
-        scheduler = self.gateway.scheduler(ref.loop)
+        scheduler = self.runtime.scheduler(ref.loop)
         result = await scheduler.submit(ref.body, [cmd.position(ref.motor)], motor=None)
-        axis = self.gateway.state.axis(ref.loop, ref.body, ref.motor)
+        axis = self.runtime.state.axis(ref.loop, ref.body, ref.motor)
         if axis.zero_from is not None:  # 0 by itself: once more, to tell a reset from noise
             result = await scheduler.submit(ref.body, [cmd.position(ref.motor)], motor=None)
-            axis = self.gateway.state.axis(ref.loop, ref.body, ref.motor)
+            axis = self.runtime.state.axis(ref.loop, ref.body, ref.motor)
         self.check(ref, what, field)
         if not isinstance(result.value, int) or axis.position is None:
             raise DeviceError(

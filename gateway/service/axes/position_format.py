@@ -25,12 +25,12 @@ __all__ = ["PositionFormats", "check_absolute_from", "check_target", "position_d
 class PositionFormats:
     """The position management of every controller, read from the device when not known."""
 
-    def __init__(self, gateway: Runtime) -> None:
-        self.gateway = gateway
+    def __init__(self, runtime: Runtime) -> None:
+        self.runtime = runtime
 
     def known(self, loop: str, body: str) -> PositionFormat | None:
         """The format if known without asking the device (the state cache keeps EP)."""
-        ctl = self.gateway.state.controller(loop, body)
+        ctl = self.runtime.state.controller(loop, body)
         if ctl.mode == 1:
             return PositionFormat.SIGNED  # mode 1 is always signed, EP ignored (§10 EP)
         if ctl.signed_positions is None:
@@ -41,7 +41,7 @@ class PositionFormats:
         """The format, read with ``EP`` when not known (raises what ``submit`` raises)."""
         fmt = self.known(loop, body)
         if fmt is None:
-            await self.gateway.scheduler(loop).submit(body, cmd.position_format())
+            await self.runtime.scheduler(loop).submit(body, cmd.position_format())
             # The reply taught the state cache (it hears every reply first).
             fmt = self.known(loop, body)
         # No answer: the move's own checks still hold; assume the power-on EP0.

@@ -94,12 +94,12 @@ _HOME: dict[HomeMethod, cmd.HomeMethod] = {
 class AxisService:
     """Every action on an axis; the API's routes call these."""
 
-    def __init__(self, gateway: Runtime, operations: Operations, leases: Leases) -> None:
-        self.gateway = gateway
+    def __init__(self, runtime: Runtime, operations: Operations, leases: Leases) -> None:
+        self.runtime = runtime
         self.operations = operations
-        self.checks = PreSendChecks(gateway, leases)
-        self.formats = PositionFormats(gateway)
-        self.origins = OriginGuard(gateway)
+        self.checks = PreSendChecks(runtime, leases)
+        self.formats = PositionFormats(runtime)
+        self.origins = OriginGuard(runtime)
         self._speeds: dict[str, SpeedSettings] = {}  # last read, per axis id (OC while moving)
         self._limit_jogs = LimitJogs(self._run, self._submit)
 
@@ -107,7 +107,7 @@ class AxisService:
 
     def ref(self, ident: str) -> AxisRef:
         """The axis with id or name ``ident`` (``NotFoundError`` otherwise)."""
-        return self.gateway.topology.axis(ident)
+        return self.runtime.topology.axis(ident)
 
     def view(self, ident: str) -> AxisView:
         """The cached view of one axis (no line traffic)."""
@@ -116,12 +116,12 @@ class AxisService:
 
     def views(self) -> list[AxisView]:
         """Every axis, cached."""
-        return [self._view(a) for a in self.gateway.topology.axes()]
+        return [self._view(a) for a in self.runtime.topology.axes()]
 
     def _view(self, ref: AxisRef) -> AxisView:
-        state = self.gateway.state.axis(ref.loop, ref.body, ref.motor)
-        controller = self.gateway.topology.controller(ref.controller_id)
-        return axis_view(ref, state, self.gateway.control.view(controller))
+        state = self.runtime.state.axis(ref.loop, ref.body, ref.motor)
+        controller = self.runtime.topology.controller(ref.controller_id)
+        return axis_view(ref, state, self.runtime.control.view(controller))
 
     async def fresh(self, ident: str) -> AxisView:
         """Read status and position now (``""``, ``6{mt}``) and return the new view."""
@@ -132,7 +132,7 @@ class AxisService:
     def position(self, ident: str) -> int | None:
         """The cached position of an axis in pulses."""
         ref = self.ref(ident)
-        return self.gateway.state.axis(ref.loop, ref.body, ref.motor).position
+        return self.runtime.state.axis(ref.loop, ref.body, ref.motor).position
 
     # ------------------------------------------------------------------ motion
 
@@ -257,7 +257,7 @@ class AxisService:
         ref = self.ref(ident)
         command = STOP_COMMANDS[mode]
         op = self.operations.note_stop(ref.loop, ref.body)
-        result = await self.gateway.scheduler(ref.loop).stop(ref.body, command)
+        result = await self.runtime.scheduler(ref.loop).stop(ref.body, command)
         return StopResult(
             axis=ref.id,
             command=command.wire(),
@@ -271,7 +271,7 @@ class AxisService:
     async def speed(self, ident: str) -> SpeedView:
         """Read OH, OL, OS, OC and OX; OC only while stopped (§10 OC), else the last read."""
         ref = self.ref(ident)
-        ctl = self.gateway.state.controller(ref.loop, ref.body)
+        ctl = self.runtime.state.controller(ref.loop, ref.body)
         moving = bool(ctl.moving)
         if moving and ctl.selected_motor != ref.motor:
             # OH, OL, OS, OC are per motor: reading motor m's needs F{m}, and F is refused
@@ -317,14 +317,14 @@ class AxisService:
     def acknowledge(self, ident: str, kinds: list[ErrorKind] | None) -> AxisView:
         """The client has seen the axis's latched errors (those of ``kinds``; all if None)."""
         ref = self.ref(ident)
-        now = self.gateway.scheduler(ref.loop).clock()
-        self.gateway.state.acknowledge(ref.loop, ref.body, now, motor=ref.motor, kinds=kinds)
+        now = self.runtime.scheduler(ref.loop).clock()
+        self.runtime.state.acknowledge(ref.loop, ref.body, now, motor=ref.motor, kinds=kinds)
         return self.view(ref.id)
 
     # ------------------------------------------------------------------ helpers
 
     def _prefix(self, ref: AxisRef) -> str:
-        return self.gateway.topology.controller(ref.controller_id).series.value
+        return self.runtime.topology.controller(ref.controller_id).series.value
 
     def _may_act(self, ref: AxisRef, holder: str, what: str = "move") -> None:
         """Every check before an action on ``ref`` (``PreSendChecks.axis_action``)."""
@@ -332,7 +332,7 @@ class AxisService:
 
     def _cached(self, ref: AxisRef) -> int | None:
         """The axis's position if the cached reading is current (``reading_is_current``)."""
-        state = self.gateway.state.axis(ref.loop, ref.body, ref.motor)
+        state = self.runtime.state.axis(ref.loop, ref.body, ref.motor)
         return state.position if reading_is_current(state) else None
 
     async def _current(self, ref: AxisRef) -> int:
@@ -342,7 +342,7 @@ class AxisService:
         if cached is not None:
             return cached
         result = await self._submit(ref, [cmd.position(ref.motor)], motor=None)
-        position = self.gateway.state.axis(ref.loop, ref.body, ref.motor).position
+        position = self.runtime.state.axis(ref.loop, ref.body, ref.motor).position
         if not isinstance(result.value, int) or position is None:
             raise DeviceError(f"the position of {ref.id} could not be read", outcome="not_done")
         return position
@@ -350,7 +350,7 @@ class AxisService:
     async def _submit(
         self, ref: AxisRef, commands: list[Command], *, motor: int | None
     ) -> TransactionResult:
-        return await self.gateway.scheduler(ref.loop).submit(ref.body, commands, motor=motor)
+        return await self.runtime.scheduler(ref.loop).submit(ref.body, commands, motor=motor)
 
     async def _run(
         self,

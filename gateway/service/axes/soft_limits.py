@@ -90,10 +90,10 @@ class Guarded:
 class SoftLimits:
     """Resolves and checks the target of motion commands sent by ``/commands`` and ``/raw``."""
 
-    def __init__(self, gateway: Runtime) -> None:
-        self.gateway = gateway
-        self.formats = PositionFormats(gateway)
-        self.origins = OriginGuard(gateway)
+    def __init__(self, runtime: Runtime) -> None:
+        self.runtime = runtime
+        self.formats = PositionFormats(runtime)
+        self.origins = OriginGuard(runtime)
 
     async def guard(
         self, ref: ControllerRef, commands: Sequence[Command], motor: int | None, field: str
@@ -122,7 +122,7 @@ class SoftLimits:
     ) -> AxisRef | None:
         number = command.motor or motor
         if number is None:
-            number = self.gateway.state.controller(ref.loop, ref.body).selected_motor
+            number = self.runtime.state.controller(ref.loop, ref.body).selected_motor
         if number is None:
             if any(has_soft_limits(a) for a in ref.axes):
                 raise InvalidInputError(
@@ -189,7 +189,7 @@ class SoftLimits:
             ) from None
 
     async def _read(self, axis: AxisRef, query: Command, what: str) -> int:
-        scheduler = self.gateway.scheduler(axis.loop)
+        scheduler = self.runtime.scheduler(axis.loop)
         result = await scheduler.submit(axis.body, [query], motor=None)
         value = result.value
         if not isinstance(value, int) or isinstance(value, bool):

@@ -78,7 +78,7 @@ class ProgramService:
         self.runner.checks.control(ref, [command])
         self.runner.checks.lease(ref, [command], holder)
         self.runner.checks.state(ref, [command])
-        scheduler = self.runner.gateway.scheduler(ref.loop)
+        scheduler = self.runner.runtime.scheduler(ref.loop)
         result = await scheduler.upload_program(ref.body, program)
         response = response_of(ref, require_done(ref, result))
         response.frames = [*response.frames, program.text()]
@@ -117,7 +117,7 @@ class ProgramService:
         anyone may stop a motion (a stop must never wait for the holder).
         """
         if mode == "immediate":
-            scheduler = self.runner.gateway.scheduler(ref.loop)
+            scheduler = self.runner.runtime.scheduler(ref.loop)
             result = await scheduler.stop(ref.body, cmd.end_program_now())
             return response_of(ref, require_done(ref, result))
         return await self._do(ref, cmd.end_program(), holder)

@@ -109,7 +109,7 @@ class ControllerResources:
         self.runner = runner
 
     def _mode(self, ref: ControllerRef) -> int | None:
-        return self.runner.gateway.state.controller(ref.loop, ref.body).mode
+        return self.runner.runtime.state.controller(ref.loop, ref.body).mode
 
     async def _write(
         self, ref: ControllerRef, command: Command, holder: str, motor: int | None = None

@@ -76,11 +76,11 @@ class TraceView(BaseModel):
 class ControllerService:
     """Controllers and loops of ``gateway`` as the API shows them."""
 
-    def __init__(self, gateway: Runtime, leases: LeaseCheck, operations: Any = None) -> None:
-        self.gateway = gateway
+    def __init__(self, runtime: Runtime, leases: LeaseCheck, operations: Any = None) -> None:
+        self.runtime = runtime
         self.leases = leases
         self.operations = operations
-        self.runner = CommandRunner(gateway, leases)
+        self.runner = CommandRunner(runtime, leases)
         self.resources = ControllerResources(self.runner)
         self.programs = ProgramService(self.runner)
 
@@ -88,11 +88,11 @@ class ControllerService:
 
     def controller(self, ident: str) -> ControllerRef:
         """The controller with id (``loop.body``) or name ``ident`` (404 otherwise)."""
-        return self.gateway.topology.controller(ident)
+        return self.runtime.topology.controller(ident)
 
     def on_loop(self, loop: str, ident: str) -> ControllerRef:
         """A controller of ``loop`` by body number, id or name (404 otherwise)."""
-        ref = self.gateway.topology.loop(loop)
+        ref = self.runtime.topology.loop(loop)
         for ctl in ref.controllers:
             if ident in (ctl.body, ctl.id, ctl.name):
                 return ctl
@@ -106,20 +106,20 @@ class ControllerService:
 
     def controllers(self) -> list[ControllerView]:
         """Every controller, as cached."""
-        state = self.gateway.state
+        state = self.runtime.state
         return [
             controller_view(ref, state.controller(ref.loop, ref.body), self._control(ref))
-            for ref in self.gateway.topology.controllers()
+            for ref in self.runtime.topology.controllers()
         ]
 
     def view(self, ident: str) -> ControllerView:
         """One controller, as cached."""
         ref = self.controller(ident)
-        state = self.gateway.state.controller(ref.loop, ref.body)
+        state = self.runtime.state.controller(ref.loop, ref.body)
         return controller_view(ref, state, self._control(ref))
 
     def _control(self, ref: ControllerRef) -> ControlView:
-        return self.gateway.control.view(ref)
+        return self.runtime.control.view(ref)
 
     async def fresh_view(self, ident: str) -> ControllerView:
         """One controller after reading its status now (``FRESH_READS``)."""
@@ -129,15 +129,15 @@ class ControllerService:
 
     def loops(self) -> list[LoopView]:
         """Every loop."""
-        return [self.loop(ref.name) for ref in self.gateway.topology.loops()]
+        return [self.loop(ref.name) for ref in self.runtime.topology.loops()]
 
     def loop(self, name: str) -> LoopView:
         """One loop: link state and queue depth now, the scheduler's counters now."""
-        ref = self.gateway.topology.loop(name)
-        scheduler = self.gateway.scheduler(ref.name)
+        ref = self.runtime.topology.loop(name)
+        scheduler = self.runtime.scheduler(ref.name)
         counters = dataclasses.asdict(scheduler.snapshot())
         state = replace(
-            self.gateway.state.loop(ref.name),
+            self.runtime.state.loop(ref.name),
             up=scheduler.state is LinkState.UP,
             cause=scheduler.cause or None,
             queue_depth=scheduler.queue_depth,
@@ -183,8 +183,8 @@ class ControllerService:
 
     def trace(self, loop: str, controller: str | None = None) -> TraceView:
         """The trace of ``loop`` (of one controller: body number, id or name)."""
-        ref = self.gateway.topology.loop(loop)
-        trace = self.gateway.scheduler(ref.name).trace
+        ref = self.runtime.topology.loop(loop)
+        trace = self.runtime.scheduler(ref.name).trace
         body = self.on_loop(ref.name, controller).body if controller else None
         return TraceView(
             loop=ref.name,
@@ -205,9 +205,9 @@ class ControllerService:
     ) -> TraceView:
         """Switch the trace of ``loop`` (whole loop, or ``controllers`` in addition); the
         trace afterwards."""
-        ref = self.gateway.topology.loop(loop)
+        ref = self.runtime.topology.loop(loop)
         bodies = {self.on_loop(ref.name, c).body for c in controllers}
-        trace = self.gateway.scheduler(ref.name).trace
+        trace = self.runtime.scheduler(ref.name).trace
         trace.enable(enabled, hex_mode=hex_mode)
         for body in set(trace.bodies) - bodies:
             trace.enable_body(body, False)

@@ -116,7 +116,7 @@ def from_record(record: dict[str, Any], topology: Topology) -> Operation | None:
 
 
 async def read_back_after_restart(
-    gateway: Runtime,
+    runtime: Runtime,
     op: Operation,
     on_stop: Callable[[RestartStop], object] | None = None,
     occasion: Occasion = AT_RESTART,
@@ -131,7 +131,7 @@ async def read_back_after_restart(
     give_up = loop.time() + RESTART_READ_BACK
     stop: RestartStop | None = None
     if op.kind in HOLD_TO_RUN:
-        stop = await stop_left_running(gateway, op, give_up, occasion)
+        stop = await stop_left_running(runtime, op, give_up, occasion)
         if on_stop is not None:
             on_stop(stop)
         if not stop.sent:
@@ -146,7 +146,7 @@ async def read_back_after_restart(
     last = "the loop did not come up"
     while True:
         try:
-            result = await gateway.scheduler(op.axis.loop).submit(
+            result = await runtime.scheduler(op.axis.loop).submit(
                 op.axis.body, [cmd.status(), cmd.position(op.motor)]
             )
             flags, position = (r.value for r in result.results)

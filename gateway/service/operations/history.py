@@ -54,8 +54,8 @@ async def find(operations: Operations, ident: str) -> Operation:
     except NotFoundError:
         if _number(ident) is None:
             raise
-    record = await operations.gateway.store.run(lambda c: _load_one(c, ident))
-    op = None if record is None else from_record(record, operations.gateway.topology)
+    record = await operations.runtime.store.run(lambda c: _load_one(c, ident))
+    op = None if record is None else from_record(record, operations.runtime.topology)
     if op is None:
         raise NotFoundError("operation", ident)
     return op
@@ -78,8 +78,8 @@ async def newest(
     if oldest is None:
         return found
     wanted = None if state is None else state.value
-    records = await operations.gateway.store.run(
+    records = await operations.runtime.store.run(
         lambda c: _load_before(c, oldest, axis, wanted, limit - len(found))
     )
-    topology = operations.gateway.topology
+    topology = operations.runtime.topology
     return found + [op for op in (from_record(r, topology) for r in records) if op is not None]

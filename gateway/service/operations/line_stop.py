@@ -76,11 +76,11 @@ class LineStops:
 
     def __init__(
         self,
-        gateway: Runtime,
+        runtime: Runtime,
         book: ResolvingBook,
         on_stop: Callable[[RestartStop], object],
     ) -> None:
-        self.gateway = gateway
+        self.runtime = runtime
         self._book = book
         self._on_stop = on_stop
         #: per controller, the jog waiting for its stop (and its read-back)
@@ -123,7 +123,7 @@ class LineStops:
         """Stop and read back ``op`` once its loop is up (and, for ``AT_ANSWER``, its
         controller answering); again after each new outage that came before the stop was
         taken."""
-        scheduler = self.gateway.scheduler(op.axis.loop)
+        scheduler = self.runtime.scheduler(op.axis.loop)
         stops: list[RestartStop] = []
 
         def told(stop: RestartStop) -> None:
@@ -131,10 +131,10 @@ class LineStops:
             self._on_stop(stop)
 
         while True:
-            await link_up(self.gateway, op.axis.loop, None)
+            await link_up(self.runtime, op.axis.loop, None)
             if occasion is AT_ANSWER:
                 await self._answering(op)
-            verdict = await read_back_after_restart(self.gateway, op, told, occasion)
+            verdict = await read_back_after_restart(self.runtime, op, told, occasion)
             # Taken, or refused ('>@'): the controller answered; lost on a loop still up (and a
             # controller still answering): the read-back gave up on it. Only a new outage is
             # worth the next link-up or answer.
@@ -144,7 +144,7 @@ class LineStops:
                 return verdict
 
     def _online(self, op: Operation) -> bool:
-        return self.gateway.state.controller(op.axis.loop, op.axis.body).online is True
+        return self.runtime.state.controller(op.axis.loop, op.axis.body).online is True
 
     async def _answering(self, op: Operation) -> None:
         """Until the poller has found ``op``'s controller answering again."""
@@ -155,7 +155,7 @@ class LineStops:
             if ours and change.values.get("online") is True:
                 back.set()
 
-        unsubscribe = self.gateway.state.changes.subscribe(seen)
+        unsubscribe = self.runtime.state.changes.subscribe(seen)
         try:
             if not self._online(op):
                 await back.wait()

@@ -95,17 +95,17 @@ class MotionWatch:
 
     def __init__(
         self,
-        gateway: Runtime,
+        runtime: Runtime,
         book: OperationBook,
     ) -> None:
-        self.gateway = gateway
+        self.runtime = runtime
         self._book = book
         #: per controller, the ``unknown`` operation to read back when it answers again
         self._unknown: dict[tuple[str, str], _ReadBack] = {}
         self._tasks: set[asyncio.Task[Any]] = set()
         self._unsubscribe = [
-            gateway.state.follow(self._on_bus),
-            gateway.state.changes.subscribe(self._on_change),
+            runtime.state.follow(self._on_bus),
+            runtime.state.changes.subscribe(self._on_change),
         ]
 
     def close(self) -> None:
@@ -149,7 +149,7 @@ class MotionWatch:
         seen_moving = op.state is OperationState.MOVING
         if flags.command_error and not seen_moving:
             op.errors.add("command_error")
-        if self.gateway.state.controller(op.axis.loop, op.axis.body).moving:
+        if self.runtime.state.controller(op.axis.loop, op.axis.body).moving:
             if not seen_moving:
                 if op.state is OperationState.QUEUED:
                     # the read came before the send returned: the send is done all the same,
@@ -240,7 +240,7 @@ class MotionWatch:
     async def _recheck(self, op: Operation) -> tuple[StatusFlags | None, int | None]:
         """The status and the position of ``op``'s axis, read now."""
         try:
-            result = await self.gateway.scheduler(op.axis.loop).submit(
+            result = await self.runtime.scheduler(op.axis.loop).submit(
                 op.axis.body, [cmd.status(), cmd.position(op.motor)]
             )
         except Exception as exc:
@@ -256,7 +256,7 @@ class MotionWatch:
 
     async def _read_position(self, op: Operation) -> int | None:
         try:
-            result = await self.gateway.scheduler(op.axis.loop).submit(
+            result = await self.runtime.scheduler(op.axis.loop).submit(
                 op.axis.body, cmd.position(op.motor)
             )
         except Exception as exc:
@@ -270,7 +270,7 @@ class MotionWatch:
     def _followed(self, op: Operation, reported: int) -> int:
         """A position reply of ``op``'s axis as the state cache keeps it: the counter followed
         through its wraps (``gateway.bus.counting``), so ends and pre-reads compare alike."""
-        cached = self.gateway.state.axis(op.axis.loop, op.axis.body, op.motor).position
+        cached = self.runtime.state.axis(op.axis.loop, op.axis.body, op.motor).position
         return follow_counter(reported, cached)
 
     def _on_change(self, change: Change) -> None:

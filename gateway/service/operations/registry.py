@@ -65,17 +65,17 @@ class Operations:
     """Every operation of the gateway (the last ``retention``), and the tracking of the
     active one per controller (its two motors never move together, §2)."""
 
-    def __init__(self, gateway: Runtime, *, retention: int = MEMORY) -> None:
-        self.gateway = gateway
+    def __init__(self, runtime: Runtime, *, retention: int = MEMORY) -> None:
+        self.runtime = runtime
         self.retention = retention
         self.forgotten = 0  #: > 0: the store holds operations memory does not (``history``)
         self._ops: OrderedDict[str, Operation] = OrderedDict()
         self._active: dict[tuple[str, str], Operation] = {}
-        self._ids = itertools.count(gateway.store.counters.get(OPERATION_COUNTER, 0) + 1)
+        self._ids = itertools.count(runtime.store.counters.get(OPERATION_COUNTER, 0) + 1)
         self._resolved: list[Callable[[Operation], object]] = []
         self._restart_stops: list[Callable[[RestartStop], object]] = []
-        self._watch = MotionWatch(gateway, self)
-        self._line_stops = LineStops(gateway, self, lambda stop: tell(self._restart_stops, stop))
+        self._watch = MotionWatch(runtime, self)
+        self._line_stops = LineStops(runtime, self, lambda stop: tell(self._restart_stops, stop))
         #: per controller, the operation left unended by the last process, being read back
         self._restored: dict[tuple[str, str], Operation] = {}
         self._tasks: set[asyncio.Task[None]] = set()
@@ -90,12 +90,12 @@ class Operations:
     async def restore(self) -> None:
         """Read the stored operations back (before the loops start): the newest ``retention``
         and every one not ended, whose axis is then read back (once its loop is up)."""
-        store = self.gateway.store
+        store = self.runtime.store
         await store.run(lambda c: purge(c, time.time()))
         records = await store.run(lambda c: load_operations(c, self.retention))
         self.forgotten += len(records) >= self.retention
         for record in records:
-            op = from_record(record, self.gateway.topology)
+            op = from_record(record, self.runtime.topology)
             if op is None or op.id in self._ops:
                 continue
             self._store(op)
@@ -108,7 +108,7 @@ class Operations:
 
     async def _judge_restored(self, op: Operation) -> None:
         state, error, position = await read_back_after_restart(
-            self.gateway, op, lambda stop: tell(self._restart_stops, stop)
+            self.runtime, op, lambda stop: tell(self._restart_stops, stop)
         )
         self._restored.pop((op.axis.loop, op.axis.body), None)
         op.position = position if position is not None else op.position
@@ -221,7 +221,7 @@ class Operations:
         self._active[key] = op
         record, started_by = to_record(op), request_key.get()
         write = asyncio.ensure_future(
-            self.gateway.store.run(lambda c: insert_operation(c, number, record, started_by))
+            self.runtime.store.run(lambda c: insert_operation(c, number, record, started_by))
         )
         try:
             # On disk before the first frame: after a crash, the key finds this operation.
@@ -240,7 +240,7 @@ class Operations:
             ) from exc
         self._store(op)
         self._publish(op)
-        scheduler = self.gateway.scheduler(axis.loop)
+        scheduler = self.runtime.scheduler(axis.loop)
         task = asyncio.ensure_future(scheduler.submit(axis.body, commands, motor=motor))
         try:
             result = await asyncio.shield(task)
@@ -275,7 +275,7 @@ class Operations:
             before = command_result.seen.get("position_before")
             if isinstance(before, int) and not isinstance(before, bool):
                 # As the state cache keeps positions: the counter followed through its wraps.
-                axis = self.gateway.state.axis(op.axis.loop, op.axis.body, op.motor)
+                axis = self.runtime.state.axis(op.axis.loop, op.axis.body, op.motor)
                 op.position_before = follow_counter(before, axis.position)
         outcome = result.outcome
         if outcome is Outcome.DONE:
@@ -391,10 +391,10 @@ class Operations:
     def _save(self, op: Operation) -> None:
         """Queue ``op`` as it is now for the state store (the run's own write was awaited)."""
         record = to_record(op)
-        self.gateway.store.post(lambda c: save_operation(c, record))
+        self.runtime.store.post(lambda c: save_operation(c, record))
 
     def _publish(self, op: Operation) -> None:
         data = op.view().model_dump(mode="json")
-        self.gateway.events.publish(
+        self.runtime.events.publish(
             ServiceEvent(EventKind.OPERATION, f"axis:{op.axis.id}", time.time(), data)
         )

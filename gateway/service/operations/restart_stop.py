@@ -133,18 +133,18 @@ class RestartStop:
 
 
 async def stop_left_running(
-    gateway: Runtime, op: Operation, give_up: float, occasion: Occasion = AT_RESTART
+    runtime: Runtime, op: Operation, give_up: float, occasion: Occasion = AT_RESTART
 ) -> RestartStop:
     """Send ``SS`` to the controller of ``op`` as soon as its loop is up, trying again until
     the loop time ``give_up``; what was sent and how it went."""
     command = cmd.slow_stop()
     stop = RestartStop(op, command.wire(), occasion=occasion)
-    scheduler = gateway.scheduler(op.axis.loop)
+    scheduler = runtime.scheduler(op.axis.loop)
     loop = asyncio.get_running_loop()
     pause = RETRY_PAUSE
     while True:
         if scheduler.state is not LinkState.UP:
-            await link_up(gateway, op.axis.loop, give_up - loop.time())
+            await link_up(runtime, op.axis.loop, give_up - loop.time())
         try:
             result = await scheduler.stop(op.axis.body, command)
         except LoopDown as exc:
@@ -167,10 +167,10 @@ async def stop_left_running(
     return stop
 
 
-async def link_up(gateway: Runtime, name: str, timeout: float | None) -> None:
+async def link_up(runtime: Runtime, name: str, timeout: float | None) -> None:
     """Until loop ``name`` is up (woken by its ``LinkUp``), at most ``timeout`` seconds
     (None: however long it takes)."""
-    scheduler = gateway.scheduler(name)
+    scheduler = runtime.scheduler(name)
     up = asyncio.Event()
 
     def seen(event: object) -> None:

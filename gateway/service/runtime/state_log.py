@@ -56,7 +56,7 @@ class _LoopLog:
 class StateLog:
     """Writes the state-change lines of ``gateway`` (see the module)."""
 
-    gateway: Runtime
+    runtime: Runtime
     summary_period: float = 60.0
     clock: Callable[[], float] = time.monotonic
     _loops: dict[str, _LoopLog] = field(default_factory=dict)
@@ -65,10 +65,10 @@ class StateLog:
 
     def start(self) -> None:
         """Subscribe (before ``gateway.start()``, so the first ``loop up`` is seen)."""
-        for name, scheduler in self.gateway.schedulers.items():
+        for name, scheduler in self.runtime.schedulers.items():
             self._loops[name] = _LoopLog(summarised_at=self.clock())
             self._stops.append(scheduler.events.subscribe(self._on_bus))
-        self._stops.append(self.gateway.state.changes.subscribe(self._on_change))
+        self._stops.append(self.runtime.state.changes.subscribe(self._on_change))
 
     def stop(self) -> None:
         """Unsubscribe."""
