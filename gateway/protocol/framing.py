@@ -15,8 +15,10 @@ new one (§10 EL says so).
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from enum import StrEnum
+from types import MappingProxyType
 
 from gateway.errors import ParameterError
 
@@ -30,6 +32,7 @@ __all__ = [
     "MAX_FRAME",
     "POWER_ON",
     "PROGRAM_ERROR",
+    "SWITCH_FIELDS",
     "TIMER_UP",
     "Framing",
     "FramingSwitch",
@@ -147,12 +150,14 @@ class FramingSwitch:
     refused: bool = False
 
 
-_SWITCHES = {
-    "EE": "echo",
-    "EL": "cr_after_ack",
-    "ER": "error_mark",
-    "SUM": "checksum",
-}
+#: Each framing switch's command name -> the ``Framing`` field it sets: the one table of it
+#: (the catalog's framing forms, the simulator's queries and the gateway's rules derive from
+#: it). §10 names them "E E" エコーバック機能 (the echo), "E L" キャリッジ・リターン追加機能 (a CR
+#: after '>'), "E R" エラー表示機能 ('>@' on a command error) and "S U M" サム・チェック機能
+#: (checksums).
+SWITCH_FIELDS: Mapping[str, str] = MappingProxyType(
+    {"EE": "echo", "EL": "cr_after_ack", "ER": "error_mark", "SUM": "checksum"}
+)
 
 
 def framing_switch(framing: Framing, text: str) -> FramingSwitch:
@@ -163,12 +168,12 @@ def framing_switch(framing: Framing, text: str) -> FramingSwitch:
     コマンド"). Texts other than the eight switch settings change nothing.
     """
     name, value = text[:-1], text[-1:]
-    if name not in _SWITCHES or value not in ("0", "1"):
+    if name not in SWITCH_FIELDS or value not in ("0", "1"):
         return FramingSwitch(framing, framing)
     on = value == "1"
     if on and ((name == "EE" and framing.checksum) or (name == "SUM" and framing.echo)):
         return FramingSwitch(framing, framing, refused=True)
-    after = replace(framing, **{_SWITCHES[name]: on})
+    after = replace(framing, **{SWITCH_FIELDS[name]: on})
     return FramingSwitch(after if name == "EL" else framing, after)
 
 

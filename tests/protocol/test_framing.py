@@ -6,6 +6,7 @@ see docs/manual-notes.md ("Framing and the reply stream") for the decisions the 
 
 from __future__ import annotations
 
+from dataclasses import fields
 from itertools import product
 
 import pytest
@@ -13,12 +14,14 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from gateway.errors import ParameterError
+from gateway.protocol import commands
 from gateway.protocol.command_reader import CommandFrame, CommandReader, RawText, Stray
 from gateway.protocol.framing import (
     BODY_NUMBERS,
     EEPROM_DONE,
     MAX_FRAME,
     POWER_ON,
+    SWITCH_FIELDS,
     TIMER_UP,
     Framing,
     FramingSwitch,
@@ -35,6 +38,7 @@ from gateway.protocol.framing import (
     from_wire,
     to_wire,
 )
+from gateway.protocol.registry import REGISTRY
 
 SUM = Framing(checksum=True)
 ECHO = Framing(echo=True)
@@ -218,6 +222,52 @@ def test_echo_and_checksum_cannot_be_on_together() -> None:
 )
 def test_framing_switch(before: Framing, text: str, expected: FramingSwitch) -> None:
     assert framing_switch(before, text) == expected
+
+
+#: §10's names of the four switches (the list of the settings DW stores, and each command's
+#: 機能 line); what each one's "1" does to the bytes is pinned below with §10's own examples.
+MANUAL_SWITCHES = {
+    "EE": "エコーバック機能",
+    "EL": "キャリッジ・リターン追加機能",
+    "ER": "エラー表示機能",
+    "SUM": "サム・チェック機能",
+}
+
+
+def test_the_switch_table_names_the_manuals_four_switches() -> None:
+    assert set(SWITCH_FIELDS) == set(MANUAL_SWITCHES)
+    assert sorted(SWITCH_FIELDS.values()) == sorted(f.name for f in fields(Framing))
+    # The catalog's framing forms are read from the same table, not written again.
+    for name, field_name in SWITCH_FIELDS.items():
+        query = commands.FRAMING_QUERIES[REGISTRY.form(name)]
+        assert query == field_name
+        for digit in "01":
+            setting = commands.FRAMING_SETTINGS[REGISTRY.form(f"{name}{digit}")]
+            assert setting == (field_name, digit == "1")
+
+
+def _on(name: str) -> Framing:
+    """The framing after ``{name}1`` from the factory setting, through the table."""
+    return framing_switch(POWER_ON, f"{name}1").after
+
+
+def test_each_switch_turns_on_what_the_manual_describes() -> None:
+    # §10 EE: '$1' CR is answered '$1' CR '$10' CR; '$10' CR with its echo alone.
+    assert encode_data("1", "0", _on("EE"), sent=b"$1\r") == b"$1\r$10\r"
+    assert encode_ack(_on("EE"), sent=b"$10\r") == b"$10\r"
+    # §10 EL: '$10' CR is answered '>' CR; a query's reply is unchanged.
+    assert encode_ack(_on("EL"), sent=b"$10\r") == b">\r"
+    assert encode_data("1", "0", _on("EL"), sent=b"$1\r") == b">$10\r"
+    # §10 ER: a command error is answered '>@'; an accepted command '>' as before.
+    assert encode_ack(_on("ER"), sent=b"$1G\r", error=True) == b">@"
+    assert encode_ack(_on("ER"), sent=b"$10\r") == b">"
+    # §10 SUM: '$16' CR goes out as '$168B' CR; '>$10' CR comes back as '>$10C3' CR.
+    assert encode_command("1", "6", framing=_on("SUM")) == b"$168B\r"
+    assert encode_data("1", "0", _on("SUM"), sent=b"$155\r") == b">$10C3\r"
+    # Each switch turns on its own field and no other (the four are independent).
+    assert {name: _on(name) for name in SWITCH_FIELDS} == {
+        name: Framing(**{field_name: True}) for name, field_name in SWITCH_FIELDS.items()
+    }
 
 
 # ------------------------------------------------------------------ device replies

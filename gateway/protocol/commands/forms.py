@@ -9,6 +9,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 from gateway.protocol.commands.base import SpeedName
+from gateway.protocol.framing import SWITCH_FIELDS
 from gateway.protocol.registry import REGISTRY
 from gateway.protocol.spec import Form
 
@@ -89,15 +90,15 @@ CLEARS_ERRORS: frozenset[Form] = frozenset(
     REGISTRY.form(k) for k in ("K{dt},{du}{dl}", "K{dt},{bt}", "KC")
 )
 
-_FRAMING_FLAGS = {"EE": "echo", "EL": "cr_after_ack", "ER": "error_mark", "SUM": "checksum"}
-#: The query of each framing switch (§10 EE, EL, ER, SUM) -> the ``Framing`` field it reads.
+#: The query of each framing switch (§10 EE, EL, ER, SUM) -> the ``Framing`` field it reads
+#: (the switches' table is ``protocol.framing.SWITCH_FIELDS``).
 FRAMING_QUERIES: Mapping[Form, str] = {
-    REGISTRY.form(name): flag for name, flag in _FRAMING_FLAGS.items()
+    REGISTRY.form(name): flag for name, flag in SWITCH_FIELDS.items()
 }
 #: Each of the eight framing switches -> the ``Framing`` field it sets, and to what.
 FRAMING_SETTINGS: Mapping[Form, tuple[str, bool]] = {
     REGISTRY.form(f"{name}{digit}"): (flag, digit == "1")
-    for name, flag in _FRAMING_FLAGS.items()
+    for name, flag in SWITCH_FIELDS.items()
     for digit in "01"
 }
 #: ``ES{bp}``: set the baud rate (written to the EEPROM at once).

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
+from gateway.protocol.framing import SWITCH_FIELDS
 from gateway.protocol.params import PositionFormat
 from gateway.protocol.reply_values import ConditionFlags, StatusFlags, Version
 from gateway.sim.dispatch import handles
@@ -120,14 +121,7 @@ def pulse_output(ctl: ControllerView, cmd: Any, now: float) -> int:
 @handles("EE", "EL", "ER", "SUM")
 def framing_switch(ctl: ControllerView, cmd: Any, now: float) -> int:
     """§10 EE, EL, ER, SUM queries: 1 on, 0 off."""
-    framing = ctl.framing
-    on = {
-        "EE": framing.echo,
-        "EL": framing.cr_after_ack,
-        "ER": framing.error_mark,
-        "SUM": framing.checksum,
-    }[cmd.key]
-    return int(on)
+    return int(getattr(ctl.framing, SWITCH_FIELDS[cmd.key]))
 
 
 @handles("ES{bp}")
