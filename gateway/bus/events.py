@@ -136,10 +136,11 @@ class TransactionsTallied(BusEvent):
 
 @dataclass(frozen=True, kw_only=True)
 class FramingChanged(BusEvent):
-    """The framing the scheduler uses for a controller changed (set by a command or detected)."""
+    """The framing the scheduler uses for a controller changed (set by a command or detected);
+    None: not known any more (reconnect, power cycle, DL), the loop's initial one is assumed."""
 
     body: str
-    framing: Framing
+    framing: Framing | None
     detected: bool = False  # True: read back from the device after a reply looked wrong
 
 

@@ -94,7 +94,12 @@ class LoopCore:
         #: the one home of what the controllers do (the selection among it): fed by the
         #: scheduler's events before any other subscriber (``LoopLifecycle.use_state``)
         self.state = StateCache()
-        self.framing = FramingTracker(config.initial_framing)
+        #: the scheduler's rules on the framing; the framing itself is the state cache's
+        self.framing = FramingTracker(
+            config.initial_framing,
+            known=lambda body: self.state.flags(name, body).framing,
+            publish=self._framing_changed,
+        )
         #: ``$B#*`` seen per controller (a counter, so a waiter cannot miss an early one)
         self.eeprom_done: dict[str, int] = {}
         self.eeprom_event = asyncio.Event()
@@ -144,13 +149,16 @@ class LoopCore:
             )
 
     def set_framing(self, body: str, framing: Framing, *, detected: bool) -> None:
-        """Record a confirmed framing and publish it when it changed."""
-        if self.framing.set(body, framing) or detected:
-            self.bus.publish(
-                FramingChanged(
-                    loop=self.name, time=self.clock(), body=body, framing=framing, detected=detected
-                )
+        """Record a confirmed framing (the state cache keeps it: ``FramingTracker``)."""
+        self.framing.set(body, framing, detected=detected)
+
+    def _framing_changed(self, body: str, framing: Framing | None, detected: bool) -> None:
+        """Publish the scheduler's word on the framing (None: not known any more)."""
+        self.bus.publish(
+            FramingChanged(
+                loop=self.name, time=self.clock(), body=body, framing=framing, detected=detected
             )
+        )
 
     def doubt(self, body: str) -> None:
         """After a lost, garbled or '?' reply: the selection is not trusted any more."""

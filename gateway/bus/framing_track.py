@@ -1,19 +1,28 @@
-"""Framing per controller (§10 EE, EL, ER, SUM): tracked when set through the gateway, detected
-when a reply shows a framing the gateway did not expect.
+"""Framing per controller (§10 EE, EL, ER, SUM): the scheduler's rules on it. It is learnt
+when set through the gateway, and read back when a reply shows a framing the gateway did not
+expect.
 
 The four switches change the reply bytes (echo, CR after '>', '>@', checksums) and, for SUM,
 the command frames too. ``DW`` stores them in EEPROM (§10 DW), so a controller may come up with
-any of them on; ``DL`` loads them. The tracker keeps what the scheduler believes per controller
-and whether it is confirmed; hints from odd replies mark a controller *suspect*, and the
-scheduler then reads EE, EL, ER and SUM back with ``read_probe`` (protocol/command_replies.py),
-which understands a query reply in every framing: ``>$B#d`` CR, with a checksum (SUM1), or
-after the echo (EE1).
+any of them on; ``DL`` loads them.
+
+The framing the line uses has one home, the state cache (``ControllerState.framing``: set
+through the gateway or read back since the link came up; None while not known, and the line
+then assumes the loop's initial framing). The scheduler decides it alone and publishes what
+it decides as ``FramingChanged`` (None: forgotten after a reconnect, a power cycle or ``DL``),
+then reads it back from there, as it does the motor selection (``selection``). What stays here
+is the scheduler's own work: hints from odd replies mark a controller *suspect*, and the
+scheduler then reads EE, EL, ER and SUM back with ``read_probe``
+(protocol/command_replies.py), which understands a query reply in every framing: ``>$B#d``
+CR, with a checksum (SUM1), or after the echo (EE1).
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 from gateway.protocol.command_replies import fits_with_checksum, fits_without_checksum
-from gateway.protocol.framing import Framing
+from gateway.protocol.framing import BODY_NUMBERS, Framing
 from gateway.protocol.models import Command
 from gateway.protocol.reply_parser import (
     ChecksumMismatch,
@@ -29,37 +38,43 @@ __all__ = [
     "hint_from_stray",
 ]
 
+#: Where the framing is kept: ``known(body)``, the state cache's (None: not known).
+KnownFraming = Callable[[str], Framing | None]
+#: How a decision is told to it: ``publish(body, framing, detected)`` (a ``FramingChanged``).
+PublishFraming = Callable[[str, Framing | None, bool], None]
+
 
 class FramingTracker:
-    """What the scheduler believes of each controller's framing."""
+    """The scheduler's word on each controller's framing, kept in the state cache."""
 
-    def __init__(self, initial: Framing) -> None:
+    def __init__(self, initial: Framing, known: KnownFraming, publish: PublishFraming) -> None:
         self._initial = initial
-        self._framing: dict[str, Framing] = {}
+        self._known = known
+        self._publish = publish
         self._suspects: dict[str, str] = {}
 
     def get(self, body: str) -> Framing:
-        """The framing to use with ``body`` now."""
-        return self._framing.get(body, self._initial)
+        """The framing to use with ``body`` now: the known one, else the assumed initial."""
+        return self._known(body) or self._initial
 
     def confirmed(self, body: str) -> bool:
         """True once set through the gateway or read back since the link came up."""
-        return body in self._framing
+        return self._known(body) is not None
 
-    def set(self, body: str, framing: Framing) -> bool:
-        """Record ``framing`` as confirmed; True when it differs from what was used before."""
-        changed = self.get(body) != framing
-        self._framing[body] = framing
+    def set(self, body: str, framing: Framing, *, detected: bool = False) -> None:
+        """Record ``framing`` as confirmed (published when it changed, and always when
+        ``detected``: read back after a reply looked wrong)."""
+        if detected or self._known(body) != framing:
+            self._publish(body, framing, detected)
         self._suspects.pop(body, None)
-        return changed
 
     def forget(self, body: str | None = None) -> None:
         """Back to the assumed initial framing, unconfirmed (reconnect, power cycle, DL)."""
         if body is None:
-            self._framing.clear()
             self._suspects.clear()
-        else:
-            self._framing.pop(body, None)
+        for one in BODY_NUMBERS if body is None else (body,):
+            if self._known(one) is not None:
+                self._publish(one, None, False)
 
     def suspect(self, body: str, why: str) -> None:
         """A reply of ``body`` looked like another framing: read it back before the next use."""

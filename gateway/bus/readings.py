@@ -4,14 +4,14 @@
 public setters (``StateWriter``, which the cache is), so every field it moves is numbered and
 published like any other change, and this module needs nothing of ``gateway.bus.state``.
 Reads that clear device flags (``""``, ``9`` form I, ``GSS``) latch what they report here,
-or it would be lost (§10 "" 注意点, §10 9 ①, §10 GSS).
+or it would be lost (§10 "" 注意点, §10 9 ①, §10 GSS). The framing is not read here: the
+scheduler alone decides it (``FramingChanged``, ``gateway.bus.framing_track``), from the
+same replies.
 """
 
 from __future__ import annotations
 
-import contextlib
 from collections.abc import Iterable
-from dataclasses import replace
 from types import MappingProxyType
 from typing import Any, Protocol
 
@@ -24,7 +24,6 @@ from gateway.bus.origin import (
 from gateway.bus.position_presets import PRESETS_ONE, presets_positions
 from gateway.bus.state_types import MOTORS, AxisState, ControllerState, ErrorKind
 from gateway.protocol import commands
-from gateway.protocol.framing import POWER_ON
 from gateway.protocol.models import Command
 from gateway.protocol.replies import ReplyValue
 from gateway.protocol.reply_values import (
@@ -151,7 +150,6 @@ class _Reading:
     def accepted(self, ctl: ControllerState) -> None:
         form = self.command.form
         origin_accepted(self.cache, self.loop, self.body, self.command, self.motor(ctl), self.now)
-        switch = commands.FRAMING_SETTINGS.get(form)
         if form is commands.SELECT_MOTOR and not ctl.moving:  # not while moving (§10 F)
             self.ctl(selected_motor=self.command.motor, selection_confirmed=False)
         elif form.effect is Effect.MOTION and not ctl.moving:
@@ -163,8 +161,6 @@ class _Reading:
             self.ctl(
                 selected_motor=moved, last_moved=moved, selection_confirmed=confirmed, moving=True
             )
-        elif switch is not None:
-            self.framing(*switch)
         elif form is commands.SET_SIGNED_POSITIONS or form is commands.SET_UNSIGNED_POSITIONS:
             self.ctl(signed_positions=form is commands.SET_SIGNED_POSITIONS)
         elif form is commands.LOAD_SETTINGS:  # the settings, EP among them, reloaded (§10 DL)
@@ -177,12 +173,6 @@ class _Reading:
         motor = self.motor(ctl) if self.command.form in PRESETS_ONE else None
         for m in MOTORS if motor is None else (motor,):
             self.axis(m, stale=True)
-
-    def framing(self, field: str, on: bool) -> None:
-        """Set the ``Framing`` field ``field`` (``echo``, ``checksum`` ...) to ``on``."""
-        current = self.cache.flags(self.loop, self.body).framing or POWER_ON
-        with contextlib.suppress(ValueError):  # EE1 with SUM1: refused (§10 EE, SUM)
-            self.ctl(framing=replace(current, **{field: on}))
 
     def status(self, ctl: ControllerState, flags: StatusFlags) -> None:
         # "" clears bits 1-3 after the reply (§10 "" 注意点): latch them now or lose them.
@@ -223,7 +213,6 @@ class _Reading:
 
     def number(self, ctl: ControllerState, value: int) -> None:
         form = self.command.form
-        framing_field = commands.FRAMING_QUERIES.get(form)
         if form.reads_position:
             motor = self.motor(ctl)
             if motor is not None:
@@ -236,8 +225,6 @@ class _Reading:
             self.ctl(signed_positions=value == 1)
         elif form is commands.SELECTED_MOTOR:
             self.ctl(selected_motor=value, selection_confirmed=True)
-        elif framing_field is not None:
-            self.framing(framing_field, value == 1)
 
     def condition_bit(self, ctl: ControllerState, bit: int, value: int) -> None:
         # 9{bit} clears nothing (§10 9 ②): the device holds a set bit until a 9 form I read,

@@ -372,8 +372,9 @@ class StateCache:
                 # check (the counters will tell whether it was reset, ``gateway.bus.origin``).
                 self.write_axis(now, loop, body, m, stale=True, position_current=False)
 
-    def set_framing(self, loop: str, body: str, framing: Framing, now: float) -> None:
-        """The framing the scheduler uses for the controller (it owns EE/EL/ER/SUM)."""
+    def set_framing(self, loop: str, body: str, framing: Framing | None, now: float) -> None:
+        """The framing the scheduler uses for the controller (None: not known). It alone
+        decides EE/EL/ER/SUM and reads them back from here (``gateway.bus.framing_track``)."""
         self.write_controller(now, loop, body, framing=framing)
 
     def set_loop_stats(

@@ -116,6 +116,9 @@ class ControllerState:
     online: bool | None = None  # None: not probed yet
     version: Version | None = None
     mode: int | None = None  # E (§10 E), also 9 bits 5,4
+    #: the framing the line uses (§10 EE, EL, ER, SUM): the scheduler's word, set through the
+    #: gateway or read back since the link came up; None while not known (the line assumes
+    #: the loop's initial framing). Only the scheduler's ``FramingChanged`` writes it.
     framing: Framing | None = None
     status: StatusFlags | None = None  # the last "" reply as read
     condition: ConditionFlags | None = None  # the last 9 (form I) reply as read

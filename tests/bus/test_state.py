@@ -7,13 +7,14 @@ decoded with the protocol's reply decoder, as the scheduler hands them over.
 from __future__ import annotations
 
 from gateway.bus.counters import CountersSnapshot
-from gateway.bus.events import LinkDown, LinkUp, ReplyObserved, TransactionDone
+from gateway.bus.events import FramingChanged, LinkDown, LinkUp, ReplyObserved, TransactionDone
 from gateway.bus.requests import Outcome, Priority
 from gateway.bus.state import (
     Change,
     ErrorKind,
     StateCache,
 )
+from gateway.protocol.framing import Framing
 from gateway.protocol.registry import parse
 from gateway.protocol.replies import decode_reply
 from gateway.protocol.reply_values import ProgramState
@@ -199,12 +200,18 @@ def test_a_motion_ack_while_moving_does_not_move_the_selection() -> None:
     assert cache.axis(LOOP, "1", 1).moving
 
 
-def test_framing_follows_settings_and_queries() -> None:
+def test_framing_is_the_schedulers_word_not_the_replies() -> None:
+    # One ruler: the scheduler decides the framing (a refused EE1, a lost reply, DL...) and
+    # publishes it; a reply to a framing switch or query is not a second opinion here.
     cache = StateCache()
     reply(cache, "EL1", None, 1.0)
     reply(cache, "ER", "1", 2.0)
-    framing = cache.controller(LOOP, "1").framing
-    assert framing is not None and framing.cr_after_ack and framing.error_mark
+    assert cache.controller(LOOP, "1").framing is None
+    el = Framing(cr_after_ack=True)
+    cache.handle(FramingChanged(loop=LOOP, time=3.0, body="1", framing=el))
+    assert cache.controller(LOOP, "1").framing == el
+    cache.handle(FramingChanged(loop=LOOP, time=4.0, body="1", framing=None))  # forgotten
+    assert cache.controller(LOOP, "1").framing is None
 
 
 def test_an_error_read_while_moving_is_latched_and_the_move_shown() -> None:
