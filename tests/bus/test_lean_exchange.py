@@ -13,7 +13,7 @@ from typing import Any
 
 import pytest
 
-from gateway.bus import state as state_module
+from gateway.bus import state_records as records_module
 from gateway.protocol.framing import Framing
 from gateway.protocol.registry import parse
 from gateway.protocol.reply_parser import MAX_LINE, ReplyEvent, ReplyParser
@@ -33,7 +33,7 @@ async def test_an_idle_status_poll_copies_no_state_record(
         copies.append((type(record).__name__, changes))
         return dataclasses.replace(record, **changes)
 
-    monkeypatch.setattr(state_module, "replace", counted)
+    monkeypatch.setattr(records_module, "replace", counted)
     for _ in range(5):
         result = await bus.scheduler.submit("1", parse(""))
         assert result.value is not None and not result.value.moving
