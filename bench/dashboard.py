@@ -69,9 +69,9 @@ async def serve() -> None:
     import uvicorn
     from fastapi import FastAPI
 
-    from gateway.api import ws
     from gateway.api.app import API_PREFIX, create_app
     from gateway.api.security import AuthConfig
+    from gateway.api.ws import endpoint as ws
     from gateway.bus.events import ReplyObserved
     from gateway.protocol.registry import parse
     from gateway.service.runtime.runtime import Runtime

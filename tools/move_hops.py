@@ -73,7 +73,7 @@ async def main() -> None:
         )
         assert r.status_code == 200, r.text
     start = seen["start"][-1]
-    start = start[next(i for i, f in enumerate(start) if "routes_axes" in f) :]
+    start = start[next(i for i, f in enumerate(start) if "routes/axes" in f) :]
     parts = [
         ("route -> Operations.run", [*start, "Operations.run"]),
         ("operation's task -> queue put", [*seen["queue"][-1], "queue put"]),

@@ -23,10 +23,10 @@ import uvicorn
 from fastapi import FastAPI
 from websockets.asyncio.client import ClientConnection, connect
 
-from gateway.api import ws
-from gateway.api.asyncapi import asyncapi_document, json_schema_of
 from gateway.api.security import AuthConfig, TokenBook, hash_token, install_security
-from gateway.api.ws_messages import ws_schema
+from gateway.api.ws import endpoint as ws
+from gateway.api.ws.asyncapi import asyncapi_document, json_schema_of
+from gateway.api.ws.messages import ws_schema
 from gateway.bus.events import ReplyObserved
 from gateway.bus.state import StateCache
 from gateway.protocol.registry import parse

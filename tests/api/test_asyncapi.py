@@ -18,7 +18,7 @@ from typing import Any
 import jsonschema_rs
 from websockets.asyncio.client import connect
 
-from gateway.api.asyncapi import asyncapi_document, json_schema_of
+from gateway.api.ws.asyncapi import asyncapi_document, json_schema_of
 from tests.api.conftest import check_server_message
 from tests.serve_process import serve
 

@@ -6,7 +6,7 @@ import asyncio
 
 import httpx
 
-from gateway.api.fresh_reads import CACHE_STATUS, FRESH_PER_CALLER
+from gateway.api.middleware.fresh_reads import CACHE_STATUS, FRESH_PER_CALLER
 from gateway.sim.control import Controls
 from tests.api.sim_app import WAIT, auth, running_app
 

@@ -15,7 +15,7 @@ from typing import Any
 import httpx
 from fastapi import FastAPI, Response
 
-from gateway.api.idempotency import install_idempotency
+from gateway.api.middleware.idempotency import install_idempotency
 from gateway.api.problems import install_problem_handlers
 from gateway.api.security import AuthConfig, install_security
 from gateway.service.store import StateStore

@@ -11,9 +11,9 @@ import httpx
 import pytest
 from fastapi import APIRouter, FastAPI
 
-from gateway.api.health import install_health_and_metrics
-from gateway.api.metrics import CONTENT_TYPE, Metrics, WsStats
+from gateway.api.metrics.collector import CONTENT_TYPE, Metrics, WsStats
 from gateway.api.problems import install_problem_handlers
+from gateway.api.routes.health import install_health_and_metrics
 from gateway.api.security import AuthConfig, install_security
 from gateway.bus.config import LoopConfig
 from gateway.bus.counters import CountersSnapshot

@@ -11,7 +11,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 
-from gateway.api.metrics import Metrics
+from gateway.api.metrics.collector import Metrics
 from gateway.cli.serve import open_lines
 from gateway.protocol.registry import parse
 from gateway.service.config import parse_config

@@ -9,9 +9,9 @@ import pytest
 from websockets.frames import Frame, Opcode
 from websockets.streams import StreamReader
 
-from gateway.api import ws_direct
 from gateway.api.security import AuthConfig, TokenBook, hash_token
-from gateway.api.ws_direct import direct_writer, text_frame
+from gateway.api.ws import direct as ws_direct
+from gateway.api.ws.direct import direct_writer, text_frame
 from gateway.bus.state import StateCache
 from gateway.service.config import WsSettings
 from gateway.service.events import ServiceEvents

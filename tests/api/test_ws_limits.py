@@ -8,7 +8,7 @@ import json
 import pytest
 from websockets.exceptions import ConnectionClosed
 
-from gateway.api.ws import WS_MESSAGE_LIMIT, uvicorn_ws_options
+from gateway.api.ws.endpoint import WS_MESSAGE_LIMIT, uvicorn_ws_options
 from gateway.service.config import WsSettings
 
 from .conftest import RECV_TIMEOUT, MakeWsServer

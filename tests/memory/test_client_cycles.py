@@ -22,8 +22,8 @@ from typing import Any
 import pytest
 from websockets.asyncio.client import connect
 
-from gateway.api import ws
-from gateway.api.fresh_reads import FreshReadGate
+from gateway.api.middleware.fresh_reads import FreshReadGate
+from gateway.api.ws import endpoint as ws
 from gateway.cli.connection_guard import ConnectionBook, uvicorn_connection_options
 from gateway.service.config import ConnectionSettings
 from tests.api.conftest import start_uvicorn
@@ -58,9 +58,7 @@ async def _ws_cycle(port: int, vanish: bool) -> None:
             client.transport.abort()
 
 
-async def _request(
-    reader: asyncio.StreamReader, writer: asyncio.StreamWriter, path: str
-) -> int:
+async def _request(reader: asyncio.StreamReader, writer: asyncio.StreamWriter, path: str) -> int:
     writer.write(f"GET {path} HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n".encode())
     status = int((await reader.readline()).split()[1])
     length = 0

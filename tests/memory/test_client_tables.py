@@ -5,7 +5,7 @@ from __future__ import annotations
 from typing import Any
 
 from gateway.api.auth_failures import BACKOFF_MAX, FORGET_AFTER, FREE_FAILURES, AuthFailures
-from gateway.api.idempotency import MEMORY_KEYS, IdempotencyStore
+from gateway.api.middleware.idempotency import MEMORY_KEYS, IdempotencyStore
 from tests.api.test_auth_failures import FakeClock
 
 

@@ -33,7 +33,7 @@ the same: stopping twice is harmless, not stopping is not). A response after whi
 was done takes the record away again. A retry after a restart that finds the record still
 ``in progress`` (the process died between acting and answering) is answered ``409``
 ``idempotency-outcome-unknown``, replayed, and nothing acts again
-(``gateway.api.idempotency_answers``).
+(``gateway.api.middleware.idempotency_answers``).
 """
 
 from __future__ import annotations
@@ -49,8 +49,8 @@ from dataclasses import dataclass, field
 from fastapi import FastAPI
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
-from gateway.api.audit_ahead import STOP_ACTIONS, acts
-from gateway.api.idempotency_answers import (
+from gateway.api.middleware.audit_ahead import STOP_ACTIONS, acts
+from gateway.api.middleware.idempotency_answers import (
     HEADER,
     REPLAYED_HEADER,
     answer_operation,

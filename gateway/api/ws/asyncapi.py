@@ -19,7 +19,7 @@ from typing import Any
 from pydantic import BaseModel
 
 from gateway import __version__
-from gateway.api.ws_messages import (
+from gateway.api.ws.messages import (
     CLOSE_CODES,
     ChangeMessage,
     ErrorMessage,

@@ -12,9 +12,9 @@ from typing import Annotated
 from fastapi import APIRouter, Body, Path, Query, Request
 
 from gateway.api.audit import audit_note
-from gateway.api.bodies import RawRequest, StopRequest, TraceSettings
-from gateway.api.deps import Admin, Operator, Service, Stops, Viewer, note_sent
 from gateway.api.problems import PROBLEM_RESPONSES
+from gateway.api.routes.bodies import RawRequest, StopRequest, TraceSettings
+from gateway.api.routes.deps import Admin, Operator, Service, Stops, Viewer, note_sent
 from gateway.errors import NotFoundError
 from gateway.service.controllers.replies import CommandResponse
 from gateway.service.controllers.service import TraceView

@@ -19,7 +19,7 @@ from typing import Any
 from starlette.requests import Request
 from starlette.types import Message, Receive, Scope, Send
 
-from gateway.api.body_gate import BODY_LIMIT
+from gateway.api.middleware.body_gate import BODY_LIMIT
 from gateway.api.problems import Problem, problem_response, problem_type
 from gateway.api.redaction import redact
 from gateway.api.security import Principal

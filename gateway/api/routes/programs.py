@@ -12,7 +12,8 @@ from typing import Annotated, Literal
 
 from fastapi import APIRouter, Path
 
-from gateway.api.bodies import (
+from gateway.api.problems import PROBLEM_RESPONSES
+from gateway.api.routes.bodies import (
     Autostart,
     BufferWrite,
     CounterWrite,
@@ -20,9 +21,8 @@ from gateway.api.bodies import (
     ProgramStop,
     ProgramWrite,
 )
-from gateway.api.deps import Id, Operator, Service
-from gateway.api.problems import PROBLEM_RESPONSES
-from gateway.api.route_calls import AdminWrite, OperatorWrite
+from gateway.api.routes.calls import AdminWrite, OperatorWrite
+from gateway.api.routes.deps import Id, Operator, Service
 from gateway.service.controllers.replies import CommandResponse
 from gateway.service.controllers.views import (
     ProgramCheck,

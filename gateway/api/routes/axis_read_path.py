@@ -33,8 +33,8 @@ from fastapi.routing import APIRoute
 from starlette.routing import BaseRoute
 from starlette.types import ASGIApp, Receive, Scope, Send
 
-from gateway.api import routes_axes
 from gateway.api.auth_failures import failures_of
+from gateway.api.routes import axes as routes_axes
 from gateway.api.security import api_routes, auth_of_scope, bearer_of_headers
 from gateway.errors import NotFoundError
 from gateway.service.control import ControlView

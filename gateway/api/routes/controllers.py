@@ -14,7 +14,8 @@ from typing import TYPE_CHECKING, Annotated, Literal
 from fastapi import APIRouter, Body, Path, Query, Request
 
 from gateway.api.audit import audit_note
-from gateway.api.bodies import (
+from gateway.api.problems import PROBLEM_RESPONSES
+from gateway.api.routes.bodies import (
     EepromRequest,
     ModeWrite,
     OutputBitWrite,
@@ -24,7 +25,8 @@ from gateway.api.bodies import (
     SensorLogicWrite,
     StopRequest,
 )
-from gateway.api.deps import (
+from gateway.api.routes.calls import AdminWrite, OperatorWrite
+from gateway.api.routes.deps import (
     Id,
     Operator,
     Service,
@@ -33,9 +35,7 @@ from gateway.api.deps import (
     forbid_unless,
     note_sent,
 )
-from gateway.api.problems import PROBLEM_RESPONSES
-from gateway.api.route_calls import AdminWrite, OperatorWrite
-from gateway.api.routes_programs import router as programs_router
+from gateway.api.routes.programs import router as programs_router
 from gateway.protocol.models import Command
 from gateway.protocol.registry import Context, command_union
 from gateway.service.commands import ROLE_RULE, required_role

@@ -22,7 +22,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from gateway import __version__
-from gateway.api.exposition import Exposition
+from gateway.api.metrics.exposition import Exposition
 from gateway.service.events import EventKind, ServiceEvent
 from gateway.service.operations.types import FINAL
 from gateway.service.runtime.bus_types import (

@@ -7,7 +7,7 @@ worker: the families are then written without samples.
 
 from __future__ import annotations
 
-from gateway.api.exposition import Exposition
+from gateway.api.metrics.exposition import Exposition
 from gateway.service.runtime.runtime import Runtime
 
 __all__ = ["render_workers"]

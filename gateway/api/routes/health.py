@@ -17,8 +17,14 @@ from fastapi import APIRouter, FastAPI, Request
 from fastapi.responses import Response
 from pydantic import BaseModel
 
-from gateway.api.metrics import CONTENT_TYPE, HttpMetricsMiddleware, Metrics, MetricsSource, WsStats
-from gateway.api.metrics_process import process_exposition
+from gateway.api.metrics.collector import (
+    CONTENT_TYPE,
+    HttpMetricsMiddleware,
+    Metrics,
+    MetricsSource,
+    WsStats,
+)
+from gateway.api.metrics.processes import process_exposition
 from gateway.api.problems import PROBLEM_MEDIA_TYPE, Problem, problem_response, problem_type
 from gateway.service.runtime.bus_types import LinkState
 

@@ -20,7 +20,7 @@ the API runs (``RequestGuard``, a pure ASGI layer):
 
 The third rule, ``Content-Type: application/json`` on every request that acts (the kind a
 browser cannot send across sites without asking first), is the body gate's
-(``gateway.api.body_gate``). A refused WebSocket is refused before it is accepted: the
+(``gateway.api.middleware.body_gate``). A refused WebSocket is refused before it is accepted: the
 client sees HTTP 403 and no byte of the feed.
 """
 

@@ -14,10 +14,10 @@ from fastapi import APIRouter, Request
 from pydantic import BaseModel, Field
 
 from gateway.api.audit import audit_note
-from gateway.api.bodies import ControlRequest
-from gateway.api.deps import Admin, Id, Service
 from gateway.api.problems import PROBLEM_RESPONSES
-from gateway.api.routes_loops import Loop
+from gateway.api.routes.bodies import ControlRequest
+from gateway.api.routes.deps import Admin, Id, Service
+from gateway.api.routes.loops import Loop
 from gateway.service.control import ControlSourceView, ControlView
 
 __all__ = ["LoopControlView", "router"]

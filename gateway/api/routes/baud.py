@@ -6,10 +6,10 @@ from __future__ import annotations
 from fastapi import APIRouter, Request
 
 from gateway.api.audit import audit_note
-from gateway.api.bodies import BaudRequest
-from gateway.api.deps import Admin
 from gateway.api.problems import PROBLEM_RESPONSES
-from gateway.api.routes_loops import Loop
+from gateway.api.routes.bodies import BaudRequest
+from gateway.api.routes.deps import Admin
+from gateway.api.routes.loops import Loop
 from gateway.service.baud import BaudChange, BaudChanger
 
 __all__ = ["router"]

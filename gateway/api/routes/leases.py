@@ -15,8 +15,8 @@ from fastapi import APIRouter, Body, Depends, Path, Request
 from pydantic import BaseModel, Field
 
 from gateway.api.audit import audit_note
-from gateway.api.bodies import LeaseRequest
-from gateway.api.deps import Operator, Viewer
+from gateway.api.routes.bodies import LeaseRequest
+from gateway.api.routes.deps import Operator, Viewer
 from gateway.service.leases import Lease, Leases
 from gateway.service.roles import Role
 

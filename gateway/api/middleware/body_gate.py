@@ -237,7 +237,7 @@ class BodyGate:
         declared = _header(scope, b"content-type")
         if not _is_json(declared):
             # Bodyless acts too: a page of another site can send a POST without a body or
-            # with a form or text type unasked, never one declared JSON (gateway.api.request_guard).
+            # with a form or text type unasked, never one declared JSON (request_guard.py).
             return Refusal(
                 415,
                 "header.content-type",

@@ -16,8 +16,8 @@ from fastapi import Depends, Query, Request, Response
 from starlette.routing import NoMatchFound
 
 from gateway.api.audit import audit_note
-from gateway.api.deps import Admin, Operator, Service, note_sent
 from gateway.api.motion_problems import motion_problem
+from gateway.api.routes.deps import Admin, Operator, Service, note_sent
 from gateway.api.security import Principal
 from gateway.service.axes import AxisService
 from gateway.service.controllers import ControllerService

@@ -17,7 +17,9 @@ from typing import Annotated
 from fastapi import APIRouter, Body, Path, Query, Request
 
 from gateway.api.audit import audit_note
-from gateway.api.bodies import (
+from gateway.api.motion_problems import MOTION_PROBLEM_RESPONSES
+from gateway.api.problems import PROBLEM_RESPONSES
+from gateway.api.routes.bodies import (
     AckRequest,
     HomeRequest,
     JogRequest,
@@ -27,11 +29,9 @@ from gateway.api.bodies import (
     StepRequest,
     StopRequest,
 )
-from gateway.api.deps import Operator, Viewer
-from gateway.api.motion_problems import MOTION_PROBLEM_RESPONSES
-from gateway.api.problems import PROBLEM_RESPONSES
-from gateway.api.route_calls import Axes, Homing, Motion, axes_of, controllers_of
-from gateway.api.routes_leases import LeaseView, lease_routes
+from gateway.api.routes.calls import Axes, Homing, Motion, axes_of, controllers_of
+from gateway.api.routes.deps import Operator, Viewer
+from gateway.api.routes.leases import LeaseView, lease_routes
 from gateway.service.axes.service import (
     StopResult,
 )

@@ -4,7 +4,7 @@ exposition format 0.0.4, written here (no client library).
 Per loop (label ``loop``): the scheduler's counters (``CountersSnapshot``), whether the line is
 up, queue depth, transactions by outcome, the line's measured busy time and utilisation ratio
 and a histogram of transaction durations (from its ``TransactionDone`` events, by priority).
-Per controller and axis, ``rc233_build_info`` and ``process_*``: gateway/api/metrics_cell.py.
+Per controller and axis, ``rc233_build_info`` and ``process_*``: gateway/api/metrics/cell.py.
 WebSocket clients and dropped clients (the hub reports into ``WsStats``). HTTP requests by
 route template, method and status, and a duration histogram (``HttpMetricsMiddleware``).
 
@@ -27,11 +27,11 @@ from typing import Protocol
 from fastapi import FastAPI
 from starlette.types import ASGIApp, Receive, Scope, Send
 
-from gateway.api.access_log import log_access
-from gateway.api.asgi_status import call_noting_status
-from gateway.api.exposition import Exposition, Histogram
-from gateway.api.metrics_cell import CellMetrics, render_build_and_process
-from gateway.api.metrics_workers import render_workers
+from gateway.api.metrics.cell import CellMetrics, render_build_and_process
+from gateway.api.metrics.exposition import Exposition, Histogram
+from gateway.api.metrics.workers import render_workers
+from gateway.api.middleware.access_log import log_access
+from gateway.api.middleware.asgi_status import call_noting_status
 from gateway.api.security import api_routes
 from gateway.service.runtime.bus_types import (
     BusEvent,
@@ -201,7 +201,7 @@ class RouteTemplates:
 
 class HttpMetricsMiddleware:
     """Count every HTTP request by its route template (``/api/v1/axes/{id}``), and write its
-    access line (``gateway.api.access_log``)."""
+    access line (``gateway.api.middleware.access_log``)."""
 
     def __init__(self, app: ASGIApp, metrics: Metrics) -> None:
         self.app = app

@@ -9,12 +9,12 @@ One connection, one feed client. Decisions (see ``ws_messages.CLOSE_CODES``):
   count towards the address's back-off as on HTTP (``gateway.api.auth_failures``): while it
   waits, the handshake is closed with 4429 before its token is looked at. A page of another
   site, or a name that is not the gateway's, is refused before the handshake is accepted
-  (``gateway.api.request_guard``: HTTP 403).
+  (``gateway.api.middleware.request_guard``: HTTP 403).
 * Client messages are JSON text: ``subscribe`` (topics, optional ``since``/``stream`` to
   resume), ``unsubscribe``, ``ping``. A message that does not fit is answered with an
   ``error`` naming the field and the rule; the connection stays open.
 * A message goes straight to the client's socket when nothing is queued ahead of it and the
-  socket takes data (``gateway.api.ws_direct``: no task switch per client); otherwise one
+  socket takes data (``gateway.api.ws.direct``: no task switch per client); otherwise one
   sender task per connection takes the client's queue in order and writes it; it alone
   waits on a slow socket. When the queue overflows (``ws.backlog`` unsent messages) the feed
   drops the client at once and this handler closes the connection with 4008 "backlog
@@ -41,8 +41,8 @@ from pydantic import ValidationError
 
 from gateway.api.auth_failures import failures_of
 from gateway.api.security import AuthConfig, authenticate_websocket, bearer_of_headers
-from gateway.api.ws_direct import DirectWriter, direct_writer
-from gateway.api.ws_messages import (
+from gateway.api.ws.direct import DirectWriter, direct_writer
+from gateway.api.ws.messages import (
     ClientMessage,
     PingMessage,
     SubscribeMessage,
@@ -73,7 +73,7 @@ router = APIRouter(tags=["websocket"])
 
 
 class WsCounter(Protocol):
-    """What the handler tells the metrics (``gateway.api.metrics.WsStats``)."""
+    """What the handler tells the metrics (``gateway.api.metrics.collector.WsStats``)."""
 
     def connected(self) -> None:
         """A client was accepted."""

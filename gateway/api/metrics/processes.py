@@ -27,7 +27,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-from gateway.api.exposition import Exposition
+from gateway.api.metrics.exposition import Exposition
 
 __all__ = ["ProcessFigures", "descendants", "process_exposition", "read_process"]
 

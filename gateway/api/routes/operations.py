@@ -12,8 +12,8 @@ from typing import Annotated
 
 from fastapi import APIRouter, Depends, Path, Query, Request
 
-from gateway.api.deps import Viewer
 from gateway.api.problems import PROBLEM_RESPONSES
+from gateway.api.routes.deps import Viewer
 from gateway.errors import NotFoundError
 from gateway.service.operations import history
 from gateway.service.operations.registry import Operations
