@@ -34,9 +34,9 @@ import time
 from pathlib import Path
 from typing import Any
 
-# The browser as the tests start it (one definition: tests/browser/chromium.py).
+# The browser as the tests start it (one definition: tests/support/chromium.py).
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from tests.browser.chromium import CHROMIUM, CHROMIUM_ARGS
+from tests.support.chromium import CHROMIUM, CHROMIUM_ARGS
 
 BODIES = [f"{n:X}" for n in range(15)]  # 0-E: 15 controllers, 30 axes
 

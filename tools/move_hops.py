@@ -22,7 +22,7 @@ sys.path.insert(0, str(Path(__file__).parents[1]))
 from gateway.bus import queue
 from gateway.service.operations.registry import Operations
 from gateway.transport import pipe
-from tests.api.sim_app import running_app
+from tests.support.sim_app import running_app
 
 Stack = list[str]
 seen: dict[str, list[Stack]] = {}

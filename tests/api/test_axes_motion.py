@@ -8,7 +8,7 @@ at -5,000 and 95,000 pulses, ORG at 0 .. 499 (gateway/sim/scene.py).
 
 from __future__ import annotations
 
-from tests.api.sim_app import json_of, running_app
+from tests.support.sim_app import json_of, running_app
 
 MOTION_FRAMES = ("2", "3", "4", "5", "7", "8", "0", "1", "H", "L")
 

@@ -13,7 +13,7 @@ from gateway.api.middleware.idempotency import install_idempotency
 from gateway.api.problems import install_problem_handlers
 from gateway.api.security import AuthConfig, install_security
 from gateway.service.store import StateStore
-from tests.api.sim_app import auth, json_of, running_app
+from tests.support.sim_app import auth, json_of, running_app
 
 
 async def test_a_retried_move_moves_the_axis_once() -> None:

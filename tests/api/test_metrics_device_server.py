@@ -19,7 +19,7 @@ from gateway.service.runtime.runtime import Runtime
 from gateway.sim.cli import build_loop
 from gateway.sim.clock import SimClock
 from gateway.sim.serve import serve_tcp
-from tests.api.test_metrics import parse_exposition, value
+from tests.support.exposition import parse_exposition, value
 
 DELAY = 0.03  # real seconds each way
 

@@ -15,9 +15,8 @@ from gateway.api.routes.axis_read_path import AxisReadPath
 from gateway.api.security import AuthConfig, bearer_of_headers
 from gateway.service.runtime.bus_types import AxisState
 from gateway.service.runtime.simulated import SIM_LOOP
-
-from .sim_app import Api, auth, json_of, running_app
-from .test_metrics import parse_exposition, value
+from tests.support.exposition import parse_exposition, value
+from tests.support.sim_app import Api, auth, json_of, running_app
 
 TEMPLATE = "/api/v1/axes/{id}"
 

@@ -15,7 +15,7 @@ import pytest
 from gateway.api.security import route_roles
 from gateway.protocol.registry import parse
 from gateway.service.roles import Role
-from tests.api.sim_app import Api, auth, running_app
+from tests.support.sim_app import Api, auth, running_app
 
 #: Values for the path parameters of the routes (ids of ``serve --simulate``).
 PATH_VALUES = {

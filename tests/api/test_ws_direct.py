@@ -18,8 +18,7 @@ from gateway.service.events import ServiceEvents
 from gateway.service.feed import Feed, FeedClient
 from gateway.service.runtime.simulated import simulated_config
 from gateway.service.topology import Topology
-
-from .conftest import (
+from tests.support.ws_server import (
     VIEWER_TOKEN,
     CountingStats,
     MakeWsServer,

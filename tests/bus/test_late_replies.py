@@ -16,7 +16,7 @@ from gateway.bus.requests import Outcome
 from gateway.bus.timing import Timing
 from gateway.protocol.registry import parse
 from gateway.sim.faults import FaultKind
-from tests.bus.conftest import MakeBus
+from tests.support.bus_rig import MakeBus
 
 #: No resend of a lost read: the next frame is another command, as when clients queue reads.
 NO_RESEND = {"resend_retries": 0}

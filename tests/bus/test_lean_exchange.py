@@ -17,7 +17,7 @@ from gateway.bus import state as state_module
 from gateway.protocol.framing import Framing
 from gateway.protocol.registry import parse
 from gateway.protocol.reply_parser import MAX_LINE, ReplyEvent, ReplyParser
-from tests.bus.conftest import MakeBus
+from tests.support.bus_rig import MakeBus
 
 
 async def test_an_idle_status_poll_copies_no_state_record(

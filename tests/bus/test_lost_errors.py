@@ -19,7 +19,7 @@ from gateway.bus.requests import Outcome
 from gateway.bus.state import ErrorKind, StateCache
 from gateway.protocol.registry import parse
 from gateway.sim.faults import FaultKind
-from tests.bus.conftest import MakeBus
+from tests.support.bus_rig import MakeBus
 
 LOOP = "loop"
 

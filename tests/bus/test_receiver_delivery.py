@@ -12,7 +12,7 @@ from gateway.protocol.registry import parse
 from gateway.sim.serve import SimPort
 from gateway.transport.base import ReceiveBuffer, Sink, TransportClosed
 from gateway.transport.pipe import PipeTransport
-from tests.bus.conftest import HOST_LATENCY, SCALE, Bus, MakeBus
+from tests.support.bus_rig import HOST_LATENCY, SCALE, Bus, MakeBus
 
 QUERIES = ["", "9", "A005D", "2D", "OX", "97"]
 

@@ -28,7 +28,7 @@ from gateway.sim.faults import FaultKind, FaultRule, Faults
 from gateway.sim.loop import SimLoop
 from gateway.sim.serve import PtyLine
 from gateway.transport.serial_line import SerialLine
-from tests.bus.conftest import HOST_LATENCY, SCALE, MakeBus
+from tests.support.bus_rig import HOST_LATENCY, SCALE, MakeBus
 
 BODIES = "123"
 MOTORS = (1, 2)

@@ -25,7 +25,7 @@ from gateway.protocol.registry import parse
 from gateway.protocol.reply_values import StatusFlags
 from gateway.sim.clock import RecordKind
 from gateway.sim.faults import FaultKind
-from tests.bus.conftest import MakeBus
+from tests.support.bus_rig import MakeBus
 
 
 async def test_a_query_goes_out_as_the_manual_frames_it(make_bus: MakeBus) -> None:

@@ -13,7 +13,7 @@ from gateway.protocol.registry import parse
 from gateway.protocol.reply_parser import UnsolicitedKind
 from gateway.sim.clock import RecordKind
 from gateway.sim.faults import FaultKind
-from tests.bus.conftest import MakeBus
+from tests.support.bus_rig import MakeBus
 
 
 async def test_dw_holds_the_line_until_its_message(make_bus: MakeBus) -> None:

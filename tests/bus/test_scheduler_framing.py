@@ -14,7 +14,7 @@ from gateway.protocol.registry import parse
 from gateway.protocol.reply_values import StatusFlags
 from gateway.sim.clock import RecordKind
 from gateway.sim.faults import FaultKind
-from tests.bus.conftest import Bus, MakeBus
+from tests.support.bus_rig import Bus, MakeBus
 
 PROBES = ["SUM", "EE", "EL", "ER"]
 

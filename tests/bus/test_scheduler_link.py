@@ -10,7 +10,7 @@ from gateway.bus.events import BusEvent, LinkDown, LinkUp
 from gateway.bus.requests import LoopDown, Outcome
 from gateway.bus.scheduler import LinkState
 from gateway.protocol.registry import parse
-from tests.bus.conftest import Bus, MakeBus
+from tests.support.bus_rig import Bus, MakeBus
 
 
 def waiter(bus: Bus, kind: type[BusEvent]) -> asyncio.Event:

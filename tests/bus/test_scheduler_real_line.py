@@ -26,7 +26,7 @@ from gateway.sim.clock import SimClock
 from gateway.sim.loop import SimLoop
 from gateway.sim.serve import PtyLine, serve_tcp
 from gateway.transport.serial_line import SerialLine
-from tests.bus.conftest import HOST_LATENCY, SCALE
+from tests.support.bus_rig import HOST_LATENCY, SCALE
 
 
 def _config() -> LoopConfig:

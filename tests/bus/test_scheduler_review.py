@@ -22,7 +22,7 @@ from gateway.protocol import commands as cmd
 from gateway.protocol.registry import parse
 from gateway.sim.faults import FaultKind
 from gateway.transport.base import Transport, TransportClosed
-from tests.bus.conftest import MakeBus
+from tests.support.bus_rig import MakeBus
 
 
 def _block() -> list[object]:

@@ -20,7 +20,7 @@ from gateway.protocol.framing import Framing
 from gateway.protocol.registry import parse
 from gateway.protocol.reply_values import ConditionFlags
 from gateway.sim.faults import FaultKind, FaultRule
-from tests.bus.conftest import MakeBus
+from tests.support.bus_rig import MakeBus
 
 
 def test_which_commands_need_the_selection() -> None:

@@ -17,7 +17,7 @@ from gateway.bus.requests import Priority
 from gateway.bus.scheduler import LoopScheduler
 from gateway.bus.state import ErrorKind, StateCache
 from gateway.protocol.registry import parse
-from tests.bus.test_poller import LOOP, Rig, close_rigs, start_rig
+from tests.support.poll_rig import LOOP, Rig, close_rigs, start_rig
 
 ORDERS = ("cache first", "cache last")
 

@@ -19,7 +19,7 @@ from gateway.bus.verify import (
 from gateway.protocol.registry import parse
 from gateway.protocol.reply_values import ErrorOutput, ErrorWatch, PortByte, StatusFlags
 from gateway.sim.faults import FaultKind
-from tests.bus.conftest import MakeBus
+from tests.support.bus_rig import MakeBus
 
 STOPPED = StatusFlags()
 MOVING = StatusFlags(moving=True)

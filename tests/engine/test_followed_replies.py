@@ -8,7 +8,7 @@ from gateway.bus.events import BusEvent, ReplyObserved, TransactionDone
 from gateway.protocol.registry import parse
 from gateway.service.events import EventKind, ServiceEvent, ServiceEvents
 from gateway.service.runtime.followed import FollowedControllers
-from tests.engine.conftest import Attach, MakeBus
+from tests.support.engine_rig import Attach, MakeBus
 
 
 async def test_reply_events_cross_for_followed_controllers_only(

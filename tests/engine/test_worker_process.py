@@ -26,8 +26,8 @@ from gateway.engine.proxy import WorkerClient
 from gateway.engine.spec import LoopSpec
 from gateway.engine.supervisor import WorkerSupervisor
 from gateway.protocol.registry import parse
-from tests.restart_rig import WAIT, RestartRig
-from tests.state_waits import until_state
+from tests.support.restart_rig import WAIT, RestartRig
+from tests.support.state_waits import until_state
 
 SCALE = 1.0
 #: Real seconds between a worker's death and its next start, in this test.

@@ -26,9 +26,9 @@ from gateway.api.middleware.fresh_reads import FreshReadGate
 from gateway.api.ws import endpoint as ws
 from gateway.cli.connection_guard import ConnectionBook, uvicorn_connection_options
 from gateway.service.config import ConnectionSettings
-from tests.api.conftest import start_uvicorn
-from tests.api.sim_app import running_app
-from tests.state_waits import until_state
+from tests.support.sim_app import running_app
+from tests.support.state_waits import until_state
+from tests.support.ws_server import start_uvicorn
 
 TOPICS = ["axis:*", "controller:*", "loop:*", "events"]
 CYCLES = 200

@@ -25,7 +25,7 @@ from typing import Any
 
 from websockets.asyncio.client import ClientConnection, connect
 
-from tests.ws_events import sim_control
+from tests.support.ws_events import sim_control
 
 GATEWAY = Path(sys.executable).parent / "rc233-gateway"
 #: Real seconds to wait for a process or an answer.

@@ -24,7 +24,7 @@ from gateway.sim.control import Controls
 from gateway.sim.loop import SimLoop
 from gateway.sim.serve import SimPort
 from gateway.transport.pipe import PipeTransport
-from tests.state_waits import until_state
+from tests.support.state_waits import until_state
 
 LOOP = "L"
 #: A gap between a moving controller's status reads this long means one was skipped (two

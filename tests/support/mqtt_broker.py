@@ -32,7 +32,7 @@ import aiomqtt
 import pytest
 
 from tests.mqtt.sparkplug_decoder import Metric, Payload, decode
-from tests.ws_events import sim_control
+from tests.support.ws_events import sim_control
 
 GATEWAY = Path(sys.executable).parent / "rc233-gateway"
 #: Real seconds a test waits for something it expects from a broker or a gateway.

@@ -37,7 +37,7 @@ from gateway.service.store import StateStore
 from gateway.sim.cli import build_loop
 from gateway.sim.clock import RecordKind, SimClock
 from gateway.sim.loop import SimLoop
-from tests.state_waits import until_state
+from tests.support.state_waits import until_state
 
 #: Device seconds per real second in the API tests.
 SCALE = 50.0
