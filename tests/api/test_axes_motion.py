@@ -90,7 +90,7 @@ async def test_signed_management_writes_the_sign() -> None:
         assert json_of(r)["state"] == "done"
         # EP1 set behind the gateway's back (another client): the reply teaches the format.
         sched = api.runtime.scheduler("sim")
-        from gateway.protocol.registry import parse
+        from gateway.protocol.command_text import parse
 
         await sched.submit("1", parse("EP1"))
         mark = api.mark()

@@ -19,7 +19,7 @@ from gateway.bus.counters import CountersSnapshot
 from gateway.bus.events import EventBus, TransactionDone, TransactionsTallied, TransactionTally
 from gateway.bus.lifecycle import LinkState
 from gateway.bus.requests import Outcome, Priority
-from gateway.protocol.registry import parse
+from gateway.protocol.command_text import parse
 from gateway.service.runtime.runtime import Runtime
 from gateway.service.runtime.simulated import SIM_LOOP, simulated_config
 from gateway.sim.cli import build_loop

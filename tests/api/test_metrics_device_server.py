@@ -13,7 +13,7 @@ import contextlib
 
 from gateway.api.metrics.collector import Metrics
 from gateway.cli.serve import open_lines
-from gateway.protocol.registry import parse
+from gateway.protocol.command_text import parse
 from gateway.service.config import parse_config
 from gateway.service.runtime.runtime import Runtime
 from gateway.sim.cli import build_loop

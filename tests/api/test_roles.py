@@ -13,7 +13,7 @@ import re
 import pytest
 
 from gateway.api.security import route_roles
-from gateway.protocol.registry import parse
+from gateway.protocol.command_text import parse
 from gateway.service.roles import Role
 from tests.support.sim_app import Api, auth, running_app
 

@@ -13,7 +13,7 @@ import asyncio
 from gateway.bus.events import BusEvent, ReplyObserved
 from gateway.bus.requests import Priority, TransactionResult
 from gateway.bus.verify import is_motion
-from gateway.protocol.registry import parse
+from gateway.protocol.command_text import parse
 from tests.support.bus_rig import MakeBus
 
 

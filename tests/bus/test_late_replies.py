@@ -14,7 +14,7 @@ import pytest
 from gateway.bus.lateness import CAP, MARGIN, MOST, Lateness
 from gateway.bus.requests import Outcome
 from gateway.bus.timing import Timing
-from gateway.protocol.registry import parse
+from gateway.protocol.command_text import parse
 from gateway.sim.faults import FaultKind
 from tests.support.bus_rig import MakeBus
 

@@ -14,8 +14,8 @@ from typing import Any
 import pytest
 
 from gateway.bus import state as state_module
+from gateway.protocol.command_text import parse
 from gateway.protocol.framing import Framing
-from gateway.protocol.registry import parse
 from gateway.protocol.reply_parser import MAX_LINE, ReplyEvent, ReplyParser
 from tests.support.bus_rig import MakeBus
 

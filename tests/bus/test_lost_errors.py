@@ -17,7 +17,7 @@ from typing import Any
 
 from gateway.bus.requests import Outcome
 from gateway.bus.state import ErrorKind, StateCache
-from gateway.protocol.registry import parse
+from gateway.protocol.command_text import parse
 from gateway.sim.faults import FaultKind
 from tests.support.bus_rig import MakeBus
 

@@ -8,7 +8,7 @@ import asyncio
 from gateway.bus.config import LoopConfig
 from gateway.bus.events import BusEvent, ReplyObserved
 from gateway.bus.scheduler import LoopScheduler
-from gateway.protocol.registry import parse
+from gateway.protocol.command_text import parse
 from gateway.sim.serve import SimPort
 from gateway.transport.base import ReceiveBuffer, Sink, TransportClosed
 from gateway.transport.pipe import PipeTransport

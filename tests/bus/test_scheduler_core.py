@@ -21,7 +21,7 @@ from gateway.bus.requests import (
     TransactionError,
 )
 from gateway.protocol import commands as cmd
-from gateway.protocol.registry import parse
+from gateway.protocol.command_text import parse
 from gateway.protocol.reply_values import StatusFlags
 from gateway.sim.clock import RecordKind
 from gateway.sim.faults import FaultKind

@@ -9,7 +9,7 @@ import asyncio
 from gateway.bus.events import ReplyObserved, UnsolicitedMessage
 from gateway.bus.requests import Outcome, ReplyKind
 from gateway.protocol import commands as cmd
-from gateway.protocol.registry import parse
+from gateway.protocol.command_text import parse
 from gateway.protocol.reply_parser import UnsolicitedKind
 from gateway.sim.clock import RecordKind
 from gateway.sim.faults import FaultKind

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from gateway.bus.events import BusEvent, EventBus, LinkUp, ReplyObserved
 from gateway.bus.requests import Outcome, ReplyKind
-from gateway.protocol.registry import parse
+from gateway.protocol.command_text import parse
 from gateway.sim.faults import FaultKind
 from tests.support.bus_rig import MakeBus
 

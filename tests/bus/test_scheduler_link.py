@@ -9,7 +9,7 @@ import pytest
 from gateway.bus.events import BusEvent, LinkDown, LinkUp
 from gateway.bus.requests import LoopDown, Outcome
 from gateway.bus.scheduler import LinkState
-from gateway.protocol.registry import parse
+from gateway.protocol.command_text import parse
 from tests.support.bus_rig import Bus, MakeBus
 
 

@@ -5,8 +5,8 @@ from __future__ import annotations
 import asyncio
 
 from gateway.bus.requests import Outcome, Priority, ReplyKind
+from gateway.protocol.command_text import parse
 from gateway.protocol.program import parse_program
-from gateway.protocol.registry import parse
 from gateway.sim.clock import RecordKind
 from gateway.sim.faults import FaultKind
 from tests.support.bus_rig import Bus, MakeBus

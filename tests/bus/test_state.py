@@ -14,7 +14,7 @@ from gateway.bus.state import (
     ErrorKind,
     StateCache,
 )
-from gateway.protocol.registry import parse
+from gateway.protocol.command_text import parse
 from gateway.protocol.replies import decode_reply
 from gateway.protocol.reply_values import ProgramState
 from tests.support.state_replies import LOOP, reply

@@ -13,7 +13,7 @@ import asyncio
 from gateway.bus.events import BusEvent, ReplyObserved
 from gateway.bus.requests import Outcome, Priority, ReplyKind, TransactionResult
 from gateway.bus.trace import FrameDirection
-from gateway.protocol.registry import parse
+from gateway.protocol.command_text import parse
 from tests.support.bus_rig import Bus, MakeBus
 
 #: Eight reads of program lines (§10 A: a query, shared by both motors).

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from gateway.bus.trace import FrameDirection, LineTrace
-from gateway.protocol.registry import parse
+from gateway.protocol.command_text import parse
 from tests.support.bus_rig import MakeBus
 
 

@@ -9,7 +9,7 @@ position was never read.
 from __future__ import annotations
 
 from gateway.bus.state import StateCache
-from gateway.protocol.registry import parse
+from gateway.protocol.command_text import parse
 from tests.support.bus_rig import MakeBus
 
 

@@ -16,7 +16,7 @@ from gateway.bus.verify import (
     value_check,
     value_outcome,
 )
-from gateway.protocol.registry import parse
+from gateway.protocol.command_text import parse
 from gateway.protocol.reply_values import ErrorOutput, ErrorWatch, PortByte, StatusFlags
 from gateway.sim.faults import FaultKind
 from tests.support.bus_rig import MakeBus

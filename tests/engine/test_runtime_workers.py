@@ -18,7 +18,7 @@ from gateway.bus.lifecycle import LinkState
 from gateway.bus.requests import Priority
 from gateway.bus.trace import FrameDirection
 from gateway.engine.proxy import SchedulerProxy
-from gateway.protocol.registry import parse
+from gateway.protocol.command_text import parse
 from gateway.service.config import parse_config
 from gateway.service.runtime.runtime import Runtime
 from tests.support.restart_rig import WAIT, RestartRig

@@ -11,7 +11,7 @@ from gateway.bus.events import BusEvent, TransactionDone, TransactionsTallied
 from gateway.bus.poll_plan import PollConfig
 from gateway.bus.requests import Priority
 from gateway.engine.tally import TALLY_PERIOD
-from gateway.protocol.registry import parse
+from gateway.protocol.command_text import parse
 from tests.support.engine_rig import Attach, Linked, MakeBus
 
 

@@ -19,8 +19,8 @@ from gateway.bus.lifecycle import LinkState
 from gateway.bus.requests import LoopDown, Outcome, TransactionError
 from gateway.bus.state_types import AxisState, Change, ControllerState
 from gateway.engine.wire import Kind, encode
+from gateway.protocol.command_text import parse
 from gateway.protocol.program import parse_program
-from gateway.protocol.registry import parse
 from tests.support.engine_rig import Attach, MakeBus
 from tests.support.state_waits import until_state
 

@@ -25,7 +25,7 @@ from gateway.engine.mirror import StateMirror
 from gateway.engine.proxy import WorkerClient
 from gateway.engine.spec import LoopSpec
 from gateway.engine.supervisor import WorkerSupervisor
-from gateway.protocol.registry import parse
+from gateway.protocol.command_text import parse
 from tests.support.restart_rig import WAIT, RestartRig
 from tests.support.state_waits import until_state
 

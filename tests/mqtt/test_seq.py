@@ -8,7 +8,7 @@ happen: 300 positions give 300 DDATA, past 255 -> 0.
 from __future__ import annotations
 
 from gateway.bus.events import ReplyObserved
-from gateway.protocol.registry import parse
+from gateway.protocol.command_text import parse
 from gateway.service.runtime.runtime import Runtime
 from gateway.service.runtime.simulated import SIM_LOOP
 from tests.mqtt.in_process import edge_node

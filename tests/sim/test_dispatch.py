@@ -14,8 +14,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from gateway.protocol.command_text import REGISTRY, Entry
 from gateway.protocol.params import Position, PositionFormat
-from gateway.protocol.registry import REGISTRY, Entry
 from gateway.protocol.replies import decode_reply
 from gateway.sim.dispatch import missing_handlers
 from tests.sim.direct import Direct

@@ -19,8 +19,8 @@ import pytest
 from gateway.bus.config import LoopConfig
 from gateway.bus.events import BusEvent, ReplyObserved
 from gateway.bus.scheduler import LoopScheduler
+from gateway.protocol.command_text import parse
 from gateway.protocol.framing import BAUD_RATES, Series
-from gateway.protocol.registry import parse
 from gateway.sim.cli import build_loop
 from gateway.sim.clock import LineRecord, RecordKind, SimClock
 from gateway.sim.faults import FaultKind, FaultRule, Faults

@@ -6,7 +6,7 @@ from typing import Any
 
 from gateway.bus.events import ReplyObserved
 from gateway.bus.state import StateCache
-from gateway.protocol.registry import parse
+from gateway.protocol.command_text import parse
 from gateway.service.config import WsSettings
 from gateway.service.feed import Feed, FeedClient
 from gateway.service.runtime.simulated import simulated_config

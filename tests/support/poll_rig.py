@@ -17,7 +17,7 @@ from gateway.bus.poller import PollConfig, Poller
 from gateway.bus.requests import Priority
 from gateway.bus.scheduler import LoopScheduler
 from gateway.bus.state import StateCache
-from gateway.protocol.registry import parse
+from gateway.protocol.command_text import parse
 from gateway.sim.cli import build_loop
 from gateway.sim.clock import LineRecord, RecordKind, SimClock
 from gateway.sim.control import Controls

@@ -6,6 +6,7 @@ from typing import Any
 
 from hypothesis import strategies as st
 
+from gateway.protocol.command_text import Entry
 from gateway.protocol.params import (
     CharChoice,
     Dec,
@@ -14,7 +15,6 @@ from gateway.protocol.params import (
     Param,
     Position,
 )
-from gateway.protocol.registry import Entry
 from gateway.protocol.text_params import Jump, Label, Text
 
 LABEL_CHARS = "0123456789@%&*=<>?!\uff71\uff72"

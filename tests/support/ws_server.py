@@ -29,7 +29,7 @@ from gateway.api.ws.asyncapi import asyncapi_document, json_schema_of
 from gateway.api.ws.messages import ws_schema
 from gateway.bus.events import ReplyObserved
 from gateway.bus.state import StateCache
-from gateway.protocol.registry import parse
+from gateway.protocol.command_text import parse
 from gateway.service.config import WsSettings
 from gateway.service.events import ServiceEvents
 from gateway.service.feed import Feed

@@ -12,8 +12,7 @@ from pydantic import TypeAdapter, ValidationError
 
 from gateway.errors import CommandFormError, ParameterError, UnknownCommandError
 from gateway.protocol.catalog import ALL_COMMANDS
-from gateway.protocol.params import PositionFormat
-from gateway.protocol.registry import (
+from gateway.protocol.command_text import (
     REGISTRY,
     Context,
     Entry,
@@ -22,6 +21,7 @@ from gateway.protocol.registry import (
     parse,
     parse_statement,
 )
+from gateway.protocol.params import PositionFormat
 from gateway.protocol.spec import Effect, ReplyFormat
 from tests.support.manual_chapters import CHAPTER_10, CHAPTER_12
 from tests.support.strategies import form_values
