@@ -47,8 +47,8 @@ from gateway.sim.eeprom import Eeprom
 from gateway.sim.flags import Error, Flags
 from gateway.sim.line_out import SILENT, Later, PowerOn, Response
 from gateway.sim.memory import POSITION_TABLE_SIZE, Baud, Settings
+from gateway.sim.ram_state import Runtime
 from gateway.sim.rules import check_rules
-from gateway.sim.runtime import Runtime
 from gateway.sim.scene import AxisScene
 
 __all__ = ["Controller", "Later", "Response"]

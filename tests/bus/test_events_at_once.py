@@ -11,8 +11,8 @@ from __future__ import annotations
 import asyncio
 
 from gateway.bus.events import BusEvent, ReplyObserved
+from gateway.bus.read_back import is_motion
 from gateway.bus.requests import Priority, TransactionResult
-from gateway.bus.verify import is_motion
 from gateway.protocol.command_text import parse
 from tests.support.bus_rig import MakeBus
 

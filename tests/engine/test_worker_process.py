@@ -23,8 +23,8 @@ from gateway.bus.poll_plan import PollConfig
 from gateway.bus.requests import LoopDown
 from gateway.engine.mirror import StateMirror
 from gateway.engine.proxy import WorkerClient
-from gateway.engine.spec import LoopSpec
 from gateway.engine.supervisor import WorkerSupervisor
+from gateway.engine.worker_spec import LoopSpec
 from gateway.protocol.command_text import parse
 from tests.support.restart_rig import WAIT, RestartRig
 from tests.support.state_waits import until_state
