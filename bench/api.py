@@ -61,11 +61,11 @@ async def serve(rate_limit: int) -> None:
     import uvicorn
     from fastapi import FastAPI
 
-    from gateway.api import ws
     from gateway.api.app import API_PREFIX, create_app
     from gateway.api.security import AuthConfig
+    from gateway.api.ws import endpoint as ws
     from gateway.bus.events import ReplyObserved
-    from gateway.protocol.registry import parse
+    from gateway.protocol.command_text import parse
     from gateway.service.runtime.runtime import Runtime
     from gateway.service.runtime.simulated import SIM_LOOP, simulated_config
     from gateway.sim.cli import build_loop

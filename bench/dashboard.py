@@ -34,9 +34,9 @@ import time
 from pathlib import Path
 from typing import Any
 
-# The browser as the tests start it (one definition: tests/browser/chromium.py).
+# The browser as the tests start it (one definition: tests/support/chromium.py).
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from tests.browser.chromium import CHROMIUM, CHROMIUM_ARGS
+from tests.support.chromium import CHROMIUM, CHROMIUM_ARGS
 
 BODIES = [f"{n:X}" for n in range(15)]  # 0-E: 15 controllers, 30 axes
 
@@ -69,11 +69,11 @@ async def serve() -> None:
     import uvicorn
     from fastapi import FastAPI
 
-    from gateway.api import ws
     from gateway.api.app import API_PREFIX, create_app
     from gateway.api.security import AuthConfig
+    from gateway.api.ws import endpoint as ws
     from gateway.bus.events import ReplyObserved
-    from gateway.protocol.registry import parse
+    from gateway.protocol.command_text import parse
     from gateway.service.runtime.runtime import Runtime
     from gateway.service.runtime.simulated import SIM_LOOP, simulated_config
     from gateway.sim.cli import build_loop

@@ -47,7 +47,7 @@ STAGES: list[tuple[str, tuple[str, ...]]] = [
     ("counters", ("bus/counters.py", "bus/counting.py", "metrics")),
     ("scheduler", ("bus/scheduler.py", "bus/queue.py", "bus/transaction.py", "bus/exchange.py",
                    "bus/link.py", "bus/lateness.py", "bus/selection.py", "bus/framing_track.py",
-                   "bus/requests.py", "bus/retries.py", "bus/verify.py", "bus/lifecycle.py")),
+                   "bus/requests.py", "bus/retries.py", "bus/read_back.py", "bus/lifecycle.py")),
     ("poller", ("bus/poller.py", "bus/poll_plan.py", "bus/position_stream.py", "bus/due_queue.py")),
     ("HTTP", ("uvicorn", "starlette", "fastapi", "httptools", "h11", "gateway/api/", "pydantic")),
     ("event loop", ("asyncio/", "uvloop", "<built-in method select", "epoll", "selectors.py")),

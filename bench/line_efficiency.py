@@ -36,8 +36,8 @@ from typing import Any
 from gateway.bus.config import LoopConfig
 from gateway.bus.requests import Priority
 from gateway.bus.scheduler import LoopScheduler
+from gateway.protocol.command_text import parse
 from gateway.protocol.framing import BAUD_RATES, BITS_PER_CHAR
-from gateway.protocol.registry import parse
 from gateway.sim.cli import build_loop
 from gateway.sim.clock import RecordKind, SimClock
 from gateway.sim.serve import SimPort

@@ -10,7 +10,7 @@ payload of every message meanwhile), and the lag from the simulator to the centr
     .venv/bin/python bench/mqtt_cells.py --cells 3
     .venv/bin/python bench/mqtt_cells.py --cells 8 --target 20000
 
-The helpers are the MQTT tests' (tests/mqtt/broker.py): the same broker, processes and
+The helpers are the MQTT tests' (tests/support/mqtt_broker.py): the same broker, processes and
 independent Sparkplug decoder.
 """
 
@@ -27,7 +27,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from tests.mqtt.broker import Broker, Cell, Central
+from tests.support.mqtt_broker import Broker, Cell, Central
 
 MOVING = ("x", "z", "gripper")
 DEVICES = {"x": "gantry", "z": "head", "gripper": "handler"}

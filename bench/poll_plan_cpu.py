@@ -39,7 +39,7 @@ async def window(seconds: float, mode: str, profile: cProfile.Profile | None) ->
     from gateway.bus.requests import Priority
     from gateway.bus.scheduler import LoopScheduler
     from gateway.bus.state import StateCache
-    from gateway.protocol.registry import parse
+    from gateway.protocol.command_text import parse
     from gateway.sim.cli import build_loop
     from gateway.sim.clock import SimClock
     from gateway.sim.serve import SimPort

@@ -31,7 +31,7 @@ from typing import Any
 
 from gateway.bus.config import LoopConfig
 from gateway.bus.scheduler import LoopScheduler
-from gateway.protocol.registry import parse
+from gateway.protocol.command_text import parse
 from gateway.sim.cli import build_loop
 from gateway.sim.clock import SimClock
 from gateway.sim.faults import FaultKind, FaultRule, Faults

@@ -18,7 +18,7 @@ from gateway.bus.counters import CountersSnapshot
 from gateway.bus.events import ReplyObserved, TransactionDone
 from gateway.bus.requests import Outcome, Priority
 from gateway.bus.state import StateCache
-from gateway.protocol.registry import parse
+from gateway.protocol.command_text import parse
 from gateway.protocol.replies import decode_reply
 
 

@@ -26,7 +26,7 @@ from gateway.bus.events import ReplyObserved, TransactionDone
 from gateway.bus.requests import CommandResult, Outcome, Priority, ReplyKind, TransactionResult
 from gateway.bus.state_types import Change
 from gateway.engine.wire import Kind, encode
-from gateway.protocol.registry import parse
+from gateway.protocol.command_text import parse
 from gateway.protocol.replies import decode_reply
 
 

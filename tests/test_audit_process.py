@@ -25,8 +25,8 @@ import httpx
 
 from gateway.cli import main
 from gateway.service.audit import ChainFile
-from tests.api.sim_app import DECLARE_JSON
-from tests.serve_process import GATEWAY, free_port
+from tests.support.serve_process import GATEWAY, free_port
+from tests.support.sim_app import DECLARE_JSON
 
 #: Real seconds to wait for the process (a busy machine with two cores)
 WAIT = 25.0

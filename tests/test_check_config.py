@@ -9,7 +9,7 @@ import pytest
 
 from gateway.api.security import hash_token
 from gateway.cli import main
-from tests.config_checks import problems_of, pseudo_terminal
+from tests.support.config_checks import problems_of, pseudo_terminal
 
 EXAMPLE = Path(__file__).parents[1] / "deploy" / "cell.example.toml"
 

@@ -14,8 +14,7 @@ import httpx
 import pytest
 
 from gateway.cli import main
-
-from .protocol.test_registry import CHAPTER_10, CHAPTER_12
+from tests.support.manual_chapters import CHAPTER_10, CHAPTER_12
 
 
 def test_catalog_json_names_every_mnemonic(capsys: pytest.CaptureFixture[str]) -> None:

@@ -19,7 +19,7 @@ from pathlib import Path
 import pytest
 
 from gateway.cli import main
-from tests.config_checks import problems_of, pseudo_terminal
+from tests.support.config_checks import problems_of, pseudo_terminal
 
 GATEWAY = Path(sys.executable).parent / "rc233-gateway"
 LOOP = """

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import httpx
 
-from tests.serve_process import serve
+from tests.support.serve_process import serve
 
 EXAMPLES = Path(__file__).parents[1] / "examples"
 

@@ -15,7 +15,7 @@ from pathlib import Path
 import httpx
 import pytest
 
-from tests.restart_rig import WAIT, RestartRig
+from tests.support.restart_rig import WAIT, RestartRig
 
 #: Real time: a Low-speed jog goes on for as long as the test needs it to.
 SCALE = 1.0

@@ -4,7 +4,7 @@ and before it answered is, on the retry with the same key, an ``idempotency-outc
 problem, and ``G`` is heard once.
 
 Real processes: ``rc233-gateway sim --tcp`` stays up while ``serve`` is SIGKILLed and started
-again on the same state directory (``tests.restart_rig``).
+again on the same state directory (``tests.support.restart_rig``).
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ from pathlib import Path
 import httpx
 import pytest
 
-from tests.restart_rig import WAIT, RestartRig
+from tests.support.restart_rig import WAIT, RestartRig
 
 SCALE = 1.0
 #: Output 0 ON, then a jump to itself: runs until stopped (§12 /J).

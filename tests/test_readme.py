@@ -16,8 +16,8 @@ import shutil
 import sys
 from pathlib import Path
 
-from tests.serve_process import TIME_SCALE, free_port, serve
-from tests.sim_process import sim_on_pty
+from tests.support.serve_process import TIME_SCALE, free_port, serve
+from tests.support.sim_process import sim_on_pty
 
 ROOT = Path(__file__).parents[1]
 README = ROOT / "README.md"

@@ -19,8 +19,8 @@ from typing import Any
 import httpx
 from websockets.asyncio.client import ClientConnection, connect
 
-from tests.serve_process import serve
-from tests.sim_process import sim_on_pty
+from tests.support.serve_process import serve
+from tests.support.sim_process import sim_on_pty
 
 SCALE = "20"
 WAIT = 30.0

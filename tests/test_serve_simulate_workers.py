@@ -4,7 +4,8 @@ does: the simulator lives in the worker (``gateway.cli.simulated_worker``), a ch
 is down with the cause. The ``--control`` port, bound once by ``serve``, drives the simulator
 of whichever worker runs, and a baud change reaches the simulated line through the worker.
 
-Real processes (``tests/serve_process.py``); the worker is found from ``serve``'s start line.
+Real processes (``tests/support/serve_process.py``); the worker is found from ``serve``'s
+start line.
 """
 
 from __future__ import annotations
@@ -23,9 +24,9 @@ import httpx
 import pytest
 
 from gateway.cli import main
-from tests.restart_rig import GATEWAY, RestartRig
-from tests.serve_process import Served, free_port, serve
-from tests.ws_events import Events, is_link, sim_control, worker_sample, ws_events
+from tests.support.restart_rig import GATEWAY, RestartRig
+from tests.support.serve_process import Served, free_port, serve
+from tests.support.ws_events import Events, is_link, sim_control, worker_sample, ws_events
 
 #: Real seconds to wait for an answer or an event.
 WAIT = 30.0

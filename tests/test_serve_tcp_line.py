@@ -13,7 +13,7 @@ from pathlib import Path
 
 import httpx
 
-from tests.serve_process import GATEWAY, serve
+from tests.support.serve_process import GATEWAY, serve
 
 CELL = """
 [[loops]]

@@ -22,8 +22,8 @@ from typing import Any
 
 import httpx
 
-from tests.restart_rig import WAIT, Gateway, RestartRig
-from tests.ws_events import Events, is_link, worker_sample, ws_events
+from tests.support.restart_rig import WAIT, Gateway, RestartRig
+from tests.support.ws_events import Events, is_link, worker_sample, ws_events
 
 #: Real time: a 9,000-pulse move takes some 4 s, still going when its worker is killed.
 SCALE = 1.0

@@ -15,7 +15,7 @@ from pathlib import Path
 import httpx
 import pytest
 
-from tests.restart_rig import WAIT, RestartRig
+from tests.support.restart_rig import WAIT, RestartRig
 
 #: Real time: a 9,000-pulse move takes some 4 s (3,000 pulses: 1.3 s), so that it is still
 #: going when the gateway is killed, even on a busy machine.

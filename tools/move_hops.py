@@ -22,7 +22,7 @@ sys.path.insert(0, str(Path(__file__).parents[1]))
 from gateway.bus import queue
 from gateway.service.operations.registry import Operations
 from gateway.transport import pipe
-from tests.api.sim_app import running_app
+from tests.support.sim_app import running_app
 
 Stack = list[str]
 seen: dict[str, list[Stack]] = {}
@@ -73,7 +73,7 @@ async def main() -> None:
         )
         assert r.status_code == 200, r.text
     start = seen["start"][-1]
-    start = start[next(i for i, f in enumerate(start) if "routes_axes" in f) :]
+    start = start[next(i for i, f in enumerate(start) if "routes/axes" in f) :]
     parts = [
         ("route -> Operations.run", [*start, "Operations.run"]),
         ("operation's task -> queue put", [*seen["queue"][-1], "queue put"]),

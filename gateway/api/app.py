@@ -19,16 +19,6 @@ from fastapi import FastAPI
 from fastapi.middleware.cors import CORSMiddleware
 
 from gateway import __version__
-from gateway.api import (
-    routes_axes,
-    routes_baud,
-    routes_control,
-    routes_controllers,
-    routes_loops,
-    routes_operations,
-    routes_session,
-    ws,
-)
 from gateway.api.audit import (
     AuditLog,
     control_entry,
@@ -37,18 +27,26 @@ from gateway.api.audit import (
     resolution_entry,
 )
 from gateway.api.auth_failures import AuthFailures
-from gateway.api.body_gate import BodyGate
 from gateway.api.dashboard import install_dashboard
-from gateway.api.fresh_reads import FreshReadGate
-from gateway.api.hardening import HardeningMiddleware
-from gateway.api.health import install_health_and_metrics
-from gateway.api.idempotency import install_idempotency
+from gateway.api.middleware.body_gate import BodyGate
+from gateway.api.middleware.fresh_reads import FreshReadGate
+from gateway.api.middleware.hardening import HardeningMiddleware
+from gateway.api.middleware.idempotency import install_idempotency
+from gateway.api.middleware.request_guard import RequestGuard
 from gateway.api.openapi_docs import install_openapi_docs, operation_id
 from gateway.api.problems import install_problem_handlers
-from gateway.api.read_path import AxisReadPath
 from gateway.api.redaction import install_log_redaction
-from gateway.api.request_guard import RequestGuard
+from gateway.api.routes import axes as routes_axes
+from gateway.api.routes import baud as routes_baud
+from gateway.api.routes import control as routes_control
+from gateway.api.routes import controllers as routes_controllers
+from gateway.api.routes import loops as routes_loops
+from gateway.api.routes import operations as routes_operations
+from gateway.api.routes import session as routes_session
+from gateway.api.routes.axis_read_path import AxisReadPath
+from gateway.api.routes.health import install_health_and_metrics
 from gateway.api.security import AuthConfig, install_security
+from gateway.api.ws import endpoint as ws
 from gateway.service.audit import FsyncPolicy, RotationPolicy
 from gateway.service.axes.service import AxisService
 from gateway.service.baud import BaudChanger
@@ -107,6 +105,7 @@ def create_app(runtime: Runtime, *, auth: AuthConfig) -> FastAPI:
     operations.on_resolved(lambda op: audit.record(resolution_entry(op, API_PREFIX)))
     # A jog the last process left running, stopped by this one at start: no request made it.
     operations.on_restart_stop(lambda stop: audit.record(stop.audit_entry(API_PREFIX)))
+
     # An admin's change of the control state is its request's entry; a key switch's has none.
     def audit_key_switch(change: ControlChange) -> None:
         if change.source == "key_switch":

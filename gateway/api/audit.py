@@ -2,7 +2,7 @@
 
 ``AuditMiddleware`` records every POST, PUT, PATCH and DELETE, refused ones too (401, 403,
 422). A request that may act (an operator's or an admin's) has its entry written ahead,
-before the route runs (``gateway.api.audit_ahead``; refused 503 with ``Retry-After`` when it
+before the route runs (``api.middleware.audit_ahead``; refused 503 with ``Retry-After`` when it
 cannot be written), and a second entry once its response has started, naming the first
 (``intent``). The second holds time (ISO 8601 UTC), token name and role, client address,
 method, path, query, request body (JSON; longer than 1 KiB: its first 1 KiB as text with its
@@ -30,9 +30,9 @@ from fastapi import APIRouter, Depends, FastAPI, Query, Request
 from pydantic import BaseModel, ConfigDict, Field
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
-from gateway.api import audit_ahead
-from gateway.api.asgi_status import call_noting_status
 from gateway.api.audit_log import PAGE_LIMIT, AuditLog
+from gateway.api.middleware import audit_ahead
+from gateway.api.middleware.asgi_status import call_noting_status
 from gateway.api.problems import PROBLEM_RESPONSES
 from gateway.api.redaction import redact
 from gateway.api.security import Principal, principal_of, require

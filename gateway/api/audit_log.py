@@ -8,7 +8,7 @@ not be written, and whether the file takes writes (``rc233_audit_log_ok``).
 
 from __future__ import annotations
 
-from gateway.api.exposition import Exposition
+from gateway.api.metrics.exposition import Exposition
 from gateway.service.audit import MEMORY, PAGE_LIMIT, AuditRecord
 
 __all__ = ["MEMORY", "PAGE_LIMIT", "AuditLog"]

@@ -24,7 +24,7 @@ from typing import Any
 from fastapi import FastAPI
 from fastapi.routing import APIRoute
 
-from gateway.api.idempotency import HEADER, MAX_KEY_LENGTH
+from gateway.api.middleware.idempotency import HEADER, MAX_KEY_LENGTH
 from gateway.api.problem_docs import install_problem_docs
 
 __all__ = ["OPERATION_IDS", "TAGS", "install_openapi_docs", "operation_id"]

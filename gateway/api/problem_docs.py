@@ -16,7 +16,7 @@ from typing import Any
 
 from fastapi import FastAPI
 
-from gateway.api.body_gate import BODY_LIMIT
+from gateway.api.middleware.body_gate import BODY_LIMIT
 from gateway.api.problems import PROBLEM_MEDIA_TYPE, Problem
 from gateway.api.security import route_roles
 
@@ -24,7 +24,7 @@ __all__ = ["document_problems", "install_problem_docs"]
 
 _PROBLEM_REF = {"$ref": "#/components/schemas/Problem"}
 _AUTH_STATUSES = ("401", "403")
-#: what the body gate answers for an operation that takes a body (gateway.api.body_gate)
+#: what the body gate answers for an operation that takes a body (gateway.api.middleware.body_gate)
 _BODY_STATUSES = {
     "413": f"The body is over {BODY_LIMIT} bytes (refused before it is read)",
     "415": "The body is not declared application/json",

@@ -285,7 +285,7 @@ def bearer_of_headers(scope: Scope) -> str | None:
     """The bearer token of the first ``Authorization`` header of ``scope``, by the rule of
     FastAPI's ``HTTPBearer`` (the scheme up to the first space, any case; the rest stripped,
     not empty); None without one. Read straight from the raw headers: the cached read asks
-    it of every request (``gateway.api.read_path``)."""
+    it of every request (``gateway.api.routes.axis_read_path``)."""
     for name, value in scope.get("headers", ()):
         if name.lower() == b"authorization":
             scheme, _, credentials = value.decode("latin-1").partition(" ")

@@ -25,8 +25,8 @@ from typing import Any, Protocol
 from gateway.bus.counting import counter_of, follow_counter
 from gateway.bus.state_types import MOTORS, AxisState, ControllerState, Origin
 from gateway.protocol import commands
+from gateway.protocol.command_text import REGISTRY
 from gateway.protocol.models import Command
-from gateway.protocol.registry import REGISTRY
 from gateway.protocol.reply_values import ProgramState, StatusFlags
 from gateway.protocol.spec import Effect
 

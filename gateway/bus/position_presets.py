@@ -11,8 +11,8 @@ before it ends (``TransactionRunner``), so no client sees an old position as fre
 from __future__ import annotations
 
 from gateway.protocol import commands
+from gateway.protocol.command_text import REGISTRY
 from gateway.protocol.models import Command
-from gateway.protocol.registry import REGISTRY
 from gateway.protocol.spec import Form
 
 __all__ = ["PRESETS_BOTH", "PRESETS_ONE", "presets_positions", "read_backs"]

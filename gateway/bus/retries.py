@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 from gateway.bus.config import LoopConfig
 from gateway.bus.counters import Counters
-from gateway.bus.verify import resendable
+from gateway.bus.read_back import resendable
 from gateway.protocol.models import Command
 
 __all__ = ["Retries"]

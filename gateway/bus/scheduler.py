@@ -17,10 +17,10 @@ from gateway.bus.lifecycle import LinkState, LoopLifecycle
 from gateway.bus.requests import Priority, TransactionError, TransactionResult
 from gateway.bus.trace import FrameDirection
 from gateway.protocol import commands as cmd
+from gateway.protocol.command_text import REGISTRY
 from gateway.protocol.framing import BODY_NUMBERS, Framing
 from gateway.protocol.models import Command
 from gateway.protocol.program import Program
-from gateway.protocol.registry import REGISTRY
 
 __all__ = ["LinkState", "LoopScheduler"]
 

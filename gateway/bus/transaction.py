@@ -27,11 +27,7 @@ from gateway.bus.detect import ensure_framing
 from gateway.bus.eeprom_hold import hold_for_write
 from gateway.bus.exchange import DOUBT, LoopCore, Sent
 from gateway.bus.position_presets import presets_positions, read_backs
-from gateway.bus.requests import CommandResult, Outcome, ReplyKind
-from gateway.bus.retries import Retries
-from gateway.bus.selection import confirm_command, needs_selection, select_command
-from gateway.bus.upload import upload
-from gateway.bus.verify import (
+from gateway.bus.read_back import (
     ValueCheck,
     is_motion,
     motion_outcome,
@@ -41,6 +37,10 @@ from gateway.bus.verify import (
     value_check,
     value_outcome,
 )
+from gateway.bus.requests import CommandResult, Outcome, ReplyKind
+from gateway.bus.retries import Retries
+from gateway.bus.selection import confirm_command, needs_selection, select_command
+from gateway.bus.upload import upload
 from gateway.protocol import commands as cmd
 from gateway.protocol.framing import Framing, framing_switch
 from gateway.protocol.models import Command

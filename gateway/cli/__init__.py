@@ -39,8 +39,8 @@ def _catalog(args: argparse.Namespace) -> int:
 
 def _parse(args: argparse.Namespace) -> int:
     from gateway.errors import InvalidInputError
+    from gateway.protocol.command_text import Context, parse
     from gateway.protocol.params import PositionFormat
-    from gateway.protocol.registry import Context, parse
 
     context = Context.PROGRAM if args.program else Context.HOST
     positions = PositionFormat(args.positions) if args.positions else None

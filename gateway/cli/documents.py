@@ -13,9 +13,9 @@ from pathlib import Path
 from typing import Any
 
 from gateway.api.app import create_app
-from gateway.api.asyncapi import asyncapi_document
 from gateway.api.security import AuthConfig, TokenBook, hash_token, new_token
-from gateway.api.ws_messages import ws_schema
+from gateway.api.ws.asyncapi import asyncapi_document
+from gateway.api.ws.messages import ws_schema
 from gateway.service.runtime.runtime import Runtime
 from gateway.service.runtime.simulated import simulated_config
 

@@ -34,7 +34,7 @@ import uvicorn
 
 from gateway.api.app import create_app
 from gateway.api.security import AuthConfig, is_loopback
-from gateway.api.ws import uvicorn_ws_options
+from gateway.api.ws.endpoint import uvicorn_ws_options
 from gateway.cli.check_config import NO_TOKENS, check_report, problems_error
 from gateway.cli.connection_guard import uvicorn_connection_options
 from gateway.cli.logs import configure_logging
@@ -286,7 +286,7 @@ async def _serve(
             port=args.port,
             log_level="debug" if args.verbose else "info",
             log_config=None,  # uvicorn's lines go through the one handler (text or JSON)
-            access_log=False,  # written by the app, cheaply (gateway.api.access_log)
+            access_log=False,  # written by the app, cheaply (gateway.api.middleware.access_log)
             server_header=False,  # no "Server: uvicorn": the software is nobody's business
             **uvicorn_ws_options(config.ws),
             **uvicorn_connection_options(config.connections),

@@ -20,7 +20,7 @@ from pathlib import Path
 
 from gateway.cli.simulated_line import SimulatedLine, sim_line
 from gateway.cli.simulated_worker import simulated_program
-from gateway.engine.spec import WorkerLines
+from gateway.engine.worker_spec import WorkerLines
 from gateway.protocol.framing import Series
 from gateway.service.config import ConfigError, GatewayConfig
 from gateway.service.runtime.simulated import SIM_LOOP, simulated_config

@@ -20,7 +20,7 @@ from collections.abc import AsyncIterator, Mapping, Sequence
 
 from gateway.cli.simulated_line import SimulatedLine, build_simulator, sim_line
 from gateway.engine.process import main
-from gateway.engine.spec import LoopSpec, WorkerProgram
+from gateway.engine.worker_spec import LoopSpec, WorkerProgram
 from gateway.sim.control import Controls, serve_control_on
 from gateway.sim.loop import SimLoop
 from gateway.transport.base import Transport

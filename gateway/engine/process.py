@@ -25,9 +25,9 @@ from contextlib import AbstractAsyncContextManager, asynccontextmanager
 from gateway.bus.poller import Poller, attach
 from gateway.bus.scheduler import LoopScheduler
 from gateway.bus.state import StateCache
-from gateway.engine.spec import LoopSpec
 from gateway.engine.wire import Channel, Kind, read_message
 from gateway.engine.worker import LineWorker
+from gateway.engine.worker_spec import LoopSpec
 from gateway.heap_trace import install_from_env
 from gateway.transport.base import Transport
 from gateway.transport.factory import open_transport

@@ -38,7 +38,7 @@ from gateway.bus.lifecycle import LinkState
 from gateway.bus.requests import LoopDown, Priority, TransactionResult
 from gateway.bus.state_types import Change, ErrorKind
 from gateway.engine.mirror import StateMirror
-from gateway.engine.remote import PollerProxy, RemoteLine, RemoteTrace
+from gateway.engine.scheduler_reads import PollerProxy, RemoteLine, RemoteTrace
 from gateway.engine.wire import Channel, Kind, decode_error, encode, read_message
 from gateway.protocol.models import Command
 from gateway.protocol.program import Program

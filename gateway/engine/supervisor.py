@@ -25,8 +25,8 @@ import time
 from collections.abc import Sequence
 
 from gateway.engine.proxy import WorkerClient
-from gateway.engine.spec import LoopSpec, WorkerProgram
 from gateway.engine.wire import Channel, Kind, encode
+from gateway.engine.worker_spec import LoopSpec, WorkerProgram
 
 __all__ = ["BACKOFF", "WorkerSupervisor", "exit_cause"]
 

@@ -24,8 +24,8 @@ from typing import Any
 
 from gateway.bus.requests import BusError, DeadlineExpired, LoopDown, TransactionError
 from gateway.errors import GatewayError
+from gateway.protocol.command_text import REGISTRY, parse
 from gateway.protocol.models import Command, model_name
-from gateway.protocol.registry import REGISTRY, parse
 
 __all__ = [
     "Channel",

@@ -21,7 +21,7 @@ from asyncua import ua
 
 from gateway.errors import GatewayError
 from gateway.opcua.call_lanes import stopped_since_queued
-from gateway.opcua.status import refusal_status
+from gateway.opcua.status_codes import refusal_status
 from gateway.opcua.users import GatewayUser, caller
 from gateway.service.audit import WriteAhead
 from gateway.service.axes import AxisService

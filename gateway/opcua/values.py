@@ -14,7 +14,7 @@ from typing import Any
 
 from asyncua import ua
 
-from gateway.opcua.status import GOOD, WAITING, Freshness, freshness
+from gateway.opcua.status_codes import GOOD, WAITING, Freshness, freshness
 from gateway.service.control import ControlState
 from gateway.service.runtime.bus_types import AxisState, CountersSnapshot
 from gateway.service.runtime.runtime import Runtime

@@ -4,6 +4,7 @@ Nothing here does I/O or imports asyncio; the simulator and the gateway both sta
 """
 
 from gateway.protocol import commands
+from gateway.protocol.command_text import REGISTRY, Context, command_union, parse, parse_statement
 from gateway.protocol.framing import (
     Framing,
     Series,
@@ -16,7 +17,6 @@ from gateway.protocol.framing import (
 from gateway.protocol.models import Command
 from gateway.protocol.params import PositionFormat
 from gateway.protocol.program import Program, Statement, parse_program
-from gateway.protocol.registry import REGISTRY, Context, command_union, parse, parse_statement
 from gateway.protocol.replies import ReplyValue, decode_reply, encode_reply, reply_length
 from gateway.protocol.reply_parser import ReplyParser
 from gateway.protocol.spec import CommandSpec, Effect, Form, Persist, ReplyFormat, Scope

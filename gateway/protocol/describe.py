@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from gateway.protocol.command_text import REGISTRY, Registry
 from gateway.protocol.params import (
     POSITION_MAX,
     POSITION_MIN,
@@ -15,7 +16,6 @@ from gateway.protocol.params import (
     Param,
     Position,
 )
-from gateway.protocol.registry import REGISTRY, Registry
 from gateway.protocol.spec import CommandSpec, Form
 
 __all__ = ["catalog_json", "catalog_table"]

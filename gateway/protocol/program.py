@@ -26,9 +26,9 @@ from enum import StrEnum
 from types import MappingProxyType
 
 from gateway.errors import InvalidInputError, ProgramError
+from gateway.protocol.command_text import parse_statement
 from gateway.protocol.models import Command
 from gateway.protocol.params import PositionFormat
-from gateway.protocol.registry import parse_statement
 from gateway.protocol.text_params import Jump, jump_count
 
 __all__ = [

@@ -103,7 +103,7 @@ class FeedClient:
         #: set when the client is off the feed: dropped, closed, or the feed closed
         self.ended = asyncio.Event()
         #: writes a message to the client's socket at once, or answers False (then it is
-        #: queued); set by the transport (gateway.api.ws_direct), None: always queue
+        #: queued); set by the transport (gateway.api.ws.direct), None: always queue
         self.direct: Callable[[str], bool] | None = None
         #: True while the sender writes a message it took from the queue
         self.sending = False

@@ -24,6 +24,7 @@ from typing import Any
 
 from gateway.errors import InvalidInputError
 from gateway.protocol.command_reader import CommandFrame, RawText
+from gateway.protocol.command_text import parse
 from gateway.protocol.framing import (
     EEPROM_DONE,
     Framing,
@@ -36,7 +37,6 @@ from gateway.protocol.framing import (
 )
 from gateway.protocol.models import Command
 from gateway.protocol.params import PositionFormat
-from gateway.protocol.registry import parse
 from gateway.protocol.replies import encode_reply, wrap_position
 from gateway.protocol.reply_values import Contact, Version
 from gateway.sim import commands, error_output, stepout  # noqa: F401  (commands: handlers)
@@ -47,8 +47,8 @@ from gateway.sim.eeprom import Eeprom
 from gateway.sim.flags import Error, Flags
 from gateway.sim.line_out import SILENT, Later, PowerOn, Response
 from gateway.sim.memory import POSITION_TABLE_SIZE, Baud, Settings
+from gateway.sim.ram_state import Runtime
 from gateway.sim.rules import check_rules
-from gateway.sim.runtime import Runtime
 from gateway.sim.scene import AxisScene
 
 __all__ = ["Controller", "Later", "Response"]

@@ -19,7 +19,7 @@ from gateway.sim.axis import Axis
 from gateway.sim.eeprom import Eeprom
 from gateway.sim.flags import Flags
 from gateway.sim.memory import Baud, Settings
-from gateway.sim.runtime import Runtime
+from gateway.sim.ram_state import Runtime
 
 __all__ = ["ControllerView"]
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any, TypeVar
 
-from gateway.protocol.registry import REGISTRY
+from gateway.protocol.command_text import REGISTRY
 
 if TYPE_CHECKING:
     from gateway.sim.controller_view import ControllerView

@@ -8,8 +8,8 @@ motors never move together, §2, §3-II).
 
 from __future__ import annotations
 
+from gateway.protocol.command_text import REGISTRY
 from gateway.protocol.models import Command
-from gateway.protocol.registry import REGISTRY
 from gateway.protocol.spec import Effect, Form
 from gateway.sim.controller_view import ControllerView
 from gateway.sim.dispatch import Refused

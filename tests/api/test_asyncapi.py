@@ -2,7 +2,7 @@
 
 The parser is npm's @asyncapi/parser, installed by `make test` into tools/asyncapi
 (`npm ci`). Every message the WebSocket tests receive is checked against the document
-(tests/api/conftest.py, ``check_server_message``); here a real `serve --simulate` feed is
+(tests/support/ws_server.py, ``check_server_message``); here a real `serve --simulate` feed is
 read from subscribe to a pong, and a client message the document does not allow is refused.
 """
 
@@ -18,9 +18,9 @@ from typing import Any
 import jsonschema_rs
 from websockets.asyncio.client import connect
 
-from gateway.api.asyncapi import asyncapi_document, json_schema_of
-from tests.api.conftest import check_server_message
-from tests.serve_process import serve
+from gateway.api.ws.asyncapi import asyncapi_document, json_schema_of
+from tests.support.serve_process import serve
+from tests.support.ws_server import check_server_message
 
 ROOT = Path(__file__).parents[2]
 TOOLS = ROOT / "tools" / "asyncapi"

@@ -29,7 +29,7 @@ from gateway.api.security import (
 )
 from gateway.service.audit import verify
 from gateway.service.roles import Role
-from tests.api.sim_app import running_app
+from tests.support.sim_app import running_app
 
 TOKENS = {"vera": ("viewer-secret", Role.VIEWER), "otto": ("operator-secret", Role.OPERATOR),
           "ada": ("admin-secret", Role.ADMIN)}  # fmt: skip

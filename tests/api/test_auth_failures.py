@@ -15,19 +15,12 @@ from websockets.exceptions import ConnectionClosed
 
 from gateway.api.auth_failures import FREE_FAILURES, AuthFailures
 from gateway.service.runtime.simulated import simulated_config
-from tests.api.sim_app import BASE, DECLARE_JSON, auth, running_app
-from tests.api.test_token_leaks_served import CELL, VIEWER
-from tests.serve_process import TIME_SCALE, serve
+from tests.support.fake_clock import FakeClock
+from tests.support.serve_process import TIME_SCALE, serve
+from tests.support.sim_app import BASE, DECLARE_JSON, auth, running_app
+from tests.support.token_cell import CELL, VIEWER
 
 WRONG = {"Authorization": "Bearer not-a-token"}
-
-
-class FakeClock:
-    def __init__(self) -> None:
-        self.now = 1000.0
-
-    def __call__(self) -> float:
-        return self.now
 
 
 async def test_wrong_tokens_from_one_address_are_made_to_wait(tmp_path: Path) -> None:

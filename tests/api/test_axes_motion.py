@@ -8,7 +8,7 @@ at -5,000 and 95,000 pulses, ORG at 0 .. 499 (gateway/sim/scene.py).
 
 from __future__ import annotations
 
-from tests.api.sim_app import json_of, running_app
+from tests.support.sim_app import json_of, running_app
 
 MOTION_FRAMES = ("2", "3", "4", "5", "7", "8", "0", "1", "H", "L")
 
@@ -90,7 +90,7 @@ async def test_signed_management_writes_the_sign() -> None:
         assert json_of(r)["state"] == "done"
         # EP1 set behind the gateway's back (another client): the reply teaches the format.
         sched = api.runtime.scheduler("sim")
-        from gateway.protocol.registry import parse
+        from gateway.protocol.command_text import parse
 
         await sched.submit("1", parse("EP1"))
         mark = api.mark()

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import pytest
 
-from tests.api.sim_app import json_of, running_app
+from tests.support.sim_app import json_of, running_app
 
 SETS = ("OH", "OL", "OS", "OC", "OX")
 

@@ -14,8 +14,8 @@ from typing import Any
 import httpx
 import pytest
 
-from gateway.api.body_gate import BODY_LIMIT, MAX_DEPTH, check_json
-from tests.api.sim_app import Api, running_app
+from gateway.api.middleware.body_gate import BODY_LIMIT, MAX_DEPTH, check_json
+from tests.support.sim_app import Api, running_app
 
 PROBLEM = "application/problem+json"
 JSON = {"Content-Type": "application/json"}

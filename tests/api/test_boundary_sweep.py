@@ -26,7 +26,7 @@ from typing import Any
 import pytest
 
 from gateway.api.audit import AuditLog
-from tests.api.sim_app import Api, running_app
+from tests.support.sim_app import Api, running_app
 
 pytestmark = pytest.mark.contract
 

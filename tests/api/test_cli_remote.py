@@ -17,8 +17,8 @@ from pathlib import Path
 import pytest
 
 from gateway.cli import main
-from tests.api.conftest import start_uvicorn
-from tests.api.sim_app import TOKENS, Api, auth, running_app
+from tests.support.sim_app import TOKENS, Api, auth, running_app
+from tests.support.ws_server import start_uvicorn
 
 GATEWAY = Path(sys.executable).parent / "rc233-gateway"
 

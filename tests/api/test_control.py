@@ -14,9 +14,8 @@ from gateway.service.config import GatewayConfig, parse_config
 from gateway.service.control import ControlChange
 from gateway.service.runtime.simulated import simulated_config
 from gateway.sim.control import Controls
-
-from .conftest import check_server_message
-from .sim_app import WAIT, Api, auth, json_of, running_app
+from tests.support.sim_app import WAIT, Api, auth, json_of, running_app
+from tests.support.ws_server import check_server_message
 
 KEY_BIT = 3  # the key switch of controller 1: general input bit 3 (§10 C), ON = local
 

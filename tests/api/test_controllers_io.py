@@ -6,7 +6,7 @@ from collections.abc import AsyncIterator
 
 import pytest
 
-from tests.api.sim_app import Api, running_app
+from tests.support.sim_app import Api, running_app
 
 URL = "/controllers/sim.1/io"
 

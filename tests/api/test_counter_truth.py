@@ -11,7 +11,7 @@ import asyncio
 from typing import Any
 
 from gateway.service.config import GatewayConfig, parse_config
-from tests.api.sim_app import Api, json_of, running_app
+from tests.support.sim_app import Api, json_of, running_app
 
 SPAN = 16_777_216  # 2^24
 MOVES = ("0", "1", "3", "4", "5", "7", "8", "B")

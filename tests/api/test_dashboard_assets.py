@@ -13,7 +13,7 @@ import json
 import re
 
 from gateway.api.dashboard import EMPTY_TEXT_HASH, STATIC_DIR
-from tests.api.sim_app import auth, json_of, running_app
+from tests.support.sim_app import auth, json_of, running_app
 
 VENDOR = STATIC_DIR / "vendor"
 

@@ -21,7 +21,7 @@ import httpx
 from gateway.service.events import EventKind, ServiceEvent
 from gateway.service.operations.types import Operation, OperationState
 from gateway.sim.faults import FaultKind, FaultRule, Faults
-from tests.api.sim_app import Api, running_app
+from tests.support.sim_app import Api, running_app
 
 NOISE = ((FaultKind.NAK, 0.05), (FaultKind.DROP, 0.02), (FaultKind.GARBLE, 0.01))
 AXES = [f"sim.{b}.{m}" for b in "123" for m in (1, 2)]

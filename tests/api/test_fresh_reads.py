@@ -6,9 +6,9 @@ import asyncio
 
 import httpx
 
-from gateway.api.fresh_reads import CACHE_STATUS, FRESH_PER_CALLER
+from gateway.api.middleware.fresh_reads import CACHE_STATUS, FRESH_PER_CALLER
 from gateway.sim.control import Controls
-from tests.api.sim_app import WAIT, auth, running_app
+from tests.support.sim_app import WAIT, auth, running_app
 
 CALLS = 10
 

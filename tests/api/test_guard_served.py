@@ -14,7 +14,7 @@ import pytest
 from websockets.asyncio.client import connect
 from websockets.exceptions import InvalidStatus
 
-from tests.serve_process import Served, serve
+from tests.support.serve_process import Served, serve
 
 EVIL = "http://evil.example"
 JSON = {"Content-Type": "application/json"}

@@ -14,7 +14,7 @@ from gateway.service.roles import Role
 from gateway.service.runtime.runtime import Runtime
 from gateway.service.runtime.simulated import SIM_LOOP, simulated_config
 from gateway.transport.pipe import PipeTransport
-from tests.api.sim_app import Api, auth, running_app
+from tests.support.sim_app import Api, auth, running_app
 
 ROOT = "http://localhost"
 

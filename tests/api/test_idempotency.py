@@ -9,11 +9,11 @@ import httpx
 import pytest
 from fastapi import FastAPI, Response
 
-from gateway.api.idempotency import install_idempotency
+from gateway.api.middleware.idempotency import install_idempotency
 from gateway.api.problems import install_problem_handlers
 from gateway.api.security import AuthConfig, install_security
 from gateway.service.store import StateStore
-from tests.api.sim_app import auth, json_of, running_app
+from tests.support.sim_app import auth, json_of, running_app
 
 
 async def test_a_retried_move_moves_the_axis_once() -> None:

@@ -15,12 +15,12 @@ from typing import Any
 import httpx
 from fastapi import FastAPI, Response
 
-from gateway.api.idempotency import install_idempotency
+from gateway.api.middleware.idempotency import install_idempotency
 from gateway.api.problems import install_problem_handlers
 from gateway.api.security import AuthConfig, install_security
 from gateway.service.store import StateStore
 from gateway.service.store.records import RequestKey, StoredKey, load_key, request_key
-from tests.api.sim_app import auth, running_app
+from tests.support.sim_app import auth, running_app
 
 
 @dataclass

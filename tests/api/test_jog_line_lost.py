@@ -18,7 +18,7 @@ from gateway.service.events import EventKind, ServiceEvent
 from gateway.service.operations import durable
 from gateway.service.operations.types import OperationState
 from gateway.sim.control import Controls
-from tests.api.sim_app import Api, json_of, running_app
+from tests.support.sim_app import Api, json_of, running_app
 
 WAIT = 30.0
 

@@ -31,7 +31,7 @@ from typing import Any
 import httpx
 import pytest
 
-from tests.serve_process import GATEWAY, free_port, serve
+from tests.support.serve_process import GATEWAY, free_port, serve
 
 SCALE = 1.0
 ANSWERS = 1000

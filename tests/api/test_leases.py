@@ -6,7 +6,7 @@ import pytest
 
 from gateway.errors import ConflictError, InvalidInputError
 from gateway.service.leases import Leases
-from tests.api.sim_app import auth, json_of, running_app
+from tests.support.sim_app import auth, json_of, running_app
 
 
 class Clock:

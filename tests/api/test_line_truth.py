@@ -14,7 +14,7 @@ import httpx
 
 from gateway.service.events import EventKind, ServiceEvent
 from gateway.service.runtime.simulated import SIM_LOOP
-from tests.api.sim_app import Api, running_app
+from tests.support.sim_app import Api, running_app
 
 #: The line-cut test's simulator speed (device seconds per real second).
 CUT_SCALE = 2.0

@@ -8,8 +8,7 @@ import asyncio
 
 from gateway.bus.events import LinkDown
 from gateway.sim.control import Controls
-
-from .sim_app import WAIT, Api, auth, json_of, running_app
+from tests.support.sim_app import WAIT, Api, auth, json_of, running_app
 
 
 def _rates(api: Api) -> dict[str, int]:

@@ -7,7 +7,7 @@ from collections.abc import AsyncIterator
 import pytest
 
 from gateway.service.roles import Role
-from tests.api.sim_app import Api, auth, running_app
+from tests.support.sim_app import Api, auth, running_app
 
 
 @pytest.fixture

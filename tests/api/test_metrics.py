@@ -2,94 +2,31 @@
 
 from __future__ import annotations
 
-import re
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import httpx
 import pytest
 from fastapi import APIRouter, FastAPI
 
-from gateway.api.health import install_health_and_metrics
-from gateway.api.metrics import CONTENT_TYPE, Metrics, WsStats
+from gateway.api.metrics.collector import CONTENT_TYPE, Metrics, WsStats
 from gateway.api.problems import install_problem_handlers
+from gateway.api.routes.health import install_health_and_metrics
 from gateway.api.security import AuthConfig, install_security
 from gateway.bus.config import LoopConfig
 from gateway.bus.counters import CountersSnapshot
 from gateway.bus.events import EventBus, TransactionDone, TransactionsTallied, TransactionTally
 from gateway.bus.lifecycle import LinkState
 from gateway.bus.requests import Outcome, Priority
-from gateway.protocol.registry import parse
+from gateway.protocol.command_text import parse
 from gateway.service.runtime.runtime import Runtime
 from gateway.service.runtime.simulated import SIM_LOOP, simulated_config
 from gateway.sim.cli import build_loop
 from gateway.sim.clock import SimClock
 from gateway.sim.serve import SimPort
 from gateway.transport.pipe import PipeTransport
-
-# ---------------------------------------------------------------------- a tiny parser
-
-_NAME = r"[a-zA-Z_:][a-zA-Z0-9_:]*"
-_SAMPLE = re.compile(rf"^({_NAME})(?:\{{(.*)\}})? (\S+)$")
-_LABEL = re.compile(rf'({_NAME})="((?:[^"\\]|\\.)*)"(,|$)')
-_SUFFIXES = ("_bucket", "_sum", "_count")
-
-Labels = frozenset[tuple[str, str]]
-
-
-@dataclass
-class Family:
-    kind: str
-    help: str
-    samples: dict[tuple[str, Labels], float] = field(default_factory=dict)
-
-
-def parse_exposition(text: str) -> dict[str, Family]:
-    """Parse the text format 0.0.4 strictly: HELP and TYPE before a family's samples, each
-    family in one block, label values escaped, numbers valid."""
-    assert text.endswith("\n")
-    families: dict[str, Family] = {}
-    current: str | None = None
-    pending_help: tuple[str, str] | None = None
-    for line in text.splitlines():
-        if line.startswith("# HELP "):
-            name, _, help_text = line[7:].partition(" ")
-            assert name not in families, f"family {name} appears twice"
-            pending_help = (name, help_text)
-        elif line.startswith("# TYPE "):
-            name, _, kind = line[7:].partition(" ")
-            assert pending_help is not None and pending_help[0] == name, line
-            assert kind in ("counter", "gauge", "histogram", "summary", "untyped"), line
-            families[name] = Family(kind, pending_help[1])
-            current = name
-        else:
-            match = _SAMPLE.match(line)
-            assert match, f"not a sample line: {line!r}"
-            sample, inner, value = match.groups()
-            assert current is not None and (
-                sample == current
-                or (families[current].kind == "histogram" and sample[len(current) :] in _SUFFIXES)
-            ), f"{sample} outside its family block (in {current})"
-            labels: list[tuple[str, str]] = []
-            rest = inner or ""
-            while rest:
-                lm = _LABEL.match(rest)
-                assert lm, f"bad labels in {line!r}"
-                raw = lm.group(2)
-                unescaped = re.sub(r"\\(.)", lambda m: {"n": "\n"}.get(m[1], m[1]), raw)
-                labels.append((lm.group(1), unescaped))
-                rest = rest[lm.end() :]
-            number = float(value)  # accepts +Inf, NaN
-            families[current].samples[(sample, frozenset(labels))] = number
-    return families
-
-
-def value(fams: dict[str, Family], sample: str, **labels: str) -> float:
-    family = (
-        fams[re.sub(r"_(bucket|sum|count)$", "", sample)] if sample not in fams else fams[sample]
-    )
-    return family.samples[(sample, frozenset(labels.items()))]
+from tests.support.exposition import parse_exposition, value
 
 
 def test_the_parser_refuses_what_prometheus_would():

@@ -1,6 +1,6 @@
 """/metrics per controller and per axis, build and process metrics, HEAD /metrics.
 
-The real app on the in-process simulated loop (tests/api/sim_app.py); the simulator's
+The real app on the in-process simulated loop (tests/support/sim_app.py); the simulator's
 control surface presses EMS and switches a controller off.
 """
 
@@ -9,8 +9,8 @@ from __future__ import annotations
 from gateway import __version__
 from gateway.service.runtime.simulated import SIM_LOOP
 from gateway.sim.control import Controls
-from tests.api.sim_app import running_app
-from tests.api.test_metrics import parse_exposition, value
+from tests.support.exposition import parse_exposition, value
+from tests.support.sim_app import running_app
 
 
 async def _scrape(api):  # type: ignore[no-untyped-def]

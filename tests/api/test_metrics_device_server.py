@@ -11,15 +11,15 @@ from __future__ import annotations
 import asyncio
 import contextlib
 
-from gateway.api.metrics import Metrics
+from gateway.api.metrics.collector import Metrics
 from gateway.cli.serve import open_lines
-from gateway.protocol.registry import parse
+from gateway.protocol.command_text import parse
 from gateway.service.config import parse_config
 from gateway.service.runtime.runtime import Runtime
 from gateway.sim.cli import build_loop
 from gateway.sim.clock import SimClock
 from gateway.sim.serve import serve_tcp
-from tests.api.test_metrics import parse_exposition, value
+from tests.support.exposition import parse_exposition, value
 
 DELAY = 0.03  # real seconds each way
 

@@ -13,7 +13,7 @@ from __future__ import annotations
 import asyncio
 
 from gateway.sim.control import Controls
-from tests.api.sim_app import json_of, running_app
+from tests.support.sim_app import json_of, running_app
 
 
 async def test_a_move_stopped_by_ems_with_wait_is_a_409_problem_carrying_the_operation() -> None:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from gateway.service.events import EventKind
 from gateway.service.operations.types import OperationState
-from tests.api.sim_app import json_of, running_app
+from tests.support.sim_app import json_of, running_app
 
 
 async def test_202_then_the_operation_reaches_done_with_the_final_position() -> None:

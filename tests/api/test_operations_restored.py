@@ -20,7 +20,7 @@ from gateway.service.runtime.simulated import simulated_config
 from gateway.service.store import StateStore
 from gateway.service.store.records import insert_operation, load_operations
 from gateway.service.topology import Topology
-from tests.api.sim_app import json_of, running_app
+from tests.support.sim_app import json_of, running_app
 
 WAIT = 20.0
 

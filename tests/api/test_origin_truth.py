@@ -17,7 +17,7 @@ import pytest
 from gateway.bus.state_types import Origin
 from gateway.service.events import EventKind
 from gateway.sim.control import Controls
-from tests.api.sim_app import Api, json_of, running_app
+from tests.support.sim_app import Api, json_of, running_app
 
 MOVES = ("0", "1", "3", "4", "5", "7", "8", "B")
 

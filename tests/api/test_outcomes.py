@@ -8,7 +8,7 @@ from typing import Any
 
 from gateway.service.events import EventKind
 from gateway.sim.faults import FaultKind, FaultRule
-from tests.api.sim_app import Api, running_app
+from tests.support.sim_app import Api, running_app
 
 
 def operation_states(api: Api, ident: str) -> list[str]:

@@ -20,8 +20,8 @@ from websockets.asyncio.client import connect
 from gateway.api.app import API_PREFIX
 from gateway.service.events import EventKind, ServiceEvent
 from gateway.sim.clock import RecordKind
-from tests.api.conftest import WsClient, start_uvicorn
-from tests.api.sim_app import WAIT, Api, running_app
+from tests.support.sim_app import WAIT, Api, running_app
+from tests.support.ws_server import WsClient, start_uvicorn
 
 PROGRAM = "/controllers/sim.1/program"
 

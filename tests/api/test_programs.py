@@ -10,7 +10,7 @@ from collections.abc import AsyncIterator
 import pytest
 
 from gateway.service.roles import Role
-from tests.api.sim_app import Api, auth, running_app
+from tests.support.sim_app import Api, auth, running_app
 
 PROGRAM = "/controllers/sim.1/program"
 #: The manual's §11 example program, as the gateway writes it (canonical text).

@@ -8,7 +8,7 @@ from typing import Any
 import pytest
 
 from gateway.service.roles import Role
-from tests.api.sim_app import Api, auth, running_app
+from tests.support.sim_app import Api, auth, running_app
 
 
 @pytest.fixture

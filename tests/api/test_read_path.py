@@ -1,4 +1,4 @@
-"""The cached read of one axis (``gateway.api.read_path``): the same answer as the routed read,
+"""The cached read of one axis (``api.routes.axis_read_path``): the same answer as the routed read,
 the same refusals, counted the same, and never older than the state cache."""
 
 from __future__ import annotations
@@ -11,13 +11,12 @@ import httpx
 import pytest
 from starlette.types import Receive, Scope, Send
 
-from gateway.api.read_path import AxisReadPath
+from gateway.api.routes.axis_read_path import AxisReadPath
 from gateway.api.security import AuthConfig, bearer_of_headers
 from gateway.service.runtime.bus_types import AxisState
 from gateway.service.runtime.simulated import SIM_LOOP
-
-from .sim_app import Api, auth, json_of, running_app
-from .test_metrics import parse_exposition, value
+from tests.support.exposition import parse_exposition, value
+from tests.support.sim_app import Api, auth, json_of, running_app
 
 TEMPLATE = "/api/v1/axes/{id}"
 

@@ -5,9 +5,9 @@ from __future__ import annotations
 
 import pytest
 
-from gateway.api.request_guard import HostRule, RequestGuard
+from gateway.api.middleware.request_guard import HostRule, RequestGuard
 from gateway.service.runtime.simulated import simulated_config
-from tests.api.sim_app import running_app
+from tests.support.sim_app import running_app
 
 EVIL = "http://evil.example"
 JSON = {"Content-Type": "application/json"}

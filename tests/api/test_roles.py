@@ -13,9 +13,9 @@ import re
 import pytest
 
 from gateway.api.security import route_roles
-from gateway.protocol.registry import parse
+from gateway.protocol.command_text import parse
 from gateway.service.roles import Role
-from tests.api.sim_app import Api, auth, running_app
+from tests.support.sim_app import Api, auth, running_app
 
 #: Values for the path parameters of the routes (ids of ``serve --simulate``).
 PATH_VALUES = {

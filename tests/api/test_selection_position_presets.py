@@ -4,7 +4,7 @@ command's '>' until it is read back, and then it is the device's."""
 from __future__ import annotations
 
 from gateway.bus.state_types import Change
-from tests.api.sim_app import running_app
+from tests.support.sim_app import running_app
 
 
 async def test_a_preset_through_commands_is_stale_until_read_back_then_right() -> None:

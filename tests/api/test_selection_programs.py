@@ -5,7 +5,7 @@ command of the gateway selects its own motor again with F before it acts."""
 from __future__ import annotations
 
 from gateway.bus.state_types import Change
-from tests.api.sim_app import Api, running_app
+from tests.support.sim_app import Api, running_app
 
 PROGRAM = "/controllers/sim.1/program"
 #: Select motor 2, its position data 300, move there and wait for the end (§12), end.

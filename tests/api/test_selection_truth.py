@@ -9,7 +9,7 @@ sent after a refused F, and the move is never blamed for the scheduler's own F.
 from __future__ import annotations
 
 from gateway.bus.state_types import ErrorKind
-from tests.api.sim_app import running_app
+from tests.support.sim_app import running_app
 
 
 async def test_a_command_for_the_other_motor_waits_and_the_move_stays_done() -> None:

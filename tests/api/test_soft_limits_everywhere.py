@@ -13,7 +13,7 @@ from typing import Any
 
 import pytest
 
-from tests.api.sim_app import Api, json_of, running_app
+from tests.support.sim_app import Api, json_of, running_app
 
 MOVES = ("3", "4", "5", "B", "7", "8", "1")
 

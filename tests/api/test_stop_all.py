@@ -8,7 +8,7 @@ heard (its line log); the motions' ends against the operations.
 from __future__ import annotations
 
 from gateway.sim.control import Controls
-from tests.api.sim_app import auth, json_of, running_app
+from tests.support.sim_app import auth, json_of, running_app
 
 
 async def test_a_loop_stop_stops_every_controller_even_leased_ones() -> None:

@@ -10,7 +10,7 @@ from __future__ import annotations
 import pytest
 
 from gateway.service.events import EventKind
-from tests.api.sim_app import json_of, running_app
+from tests.support.sim_app import json_of, running_app
 
 
 @pytest.mark.parametrize("cache_last", [False, True], ids=["cache first", "cache last"])

@@ -18,7 +18,7 @@ from gateway.api.security import AuthConfig
 from gateway.cli.serve import open_lines
 from gateway.service.config import load_config
 from gateway.service.runtime.runtime import Runtime
-from tests.sim_process import sim_on_pty
+from tests.support.sim_process import sim_on_pty
 
 SCALE = 20.0
 CELL = """

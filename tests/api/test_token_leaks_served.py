@@ -11,37 +11,8 @@ from pathlib import Path
 import httpx
 from websockets.asyncio.client import connect
 
-from gateway.api.security import hash_token
-from tests.serve_process import TIME_SCALE, serve
-
-VIEWER = "VIEWtok-encoded-9c1d"
-OPERATOR = "OPERtok-encoded-4e7b"
-
-CELL = f"""
-audit_log = "{{audit}}"
-
-[security]
-[[security.tokens]]
-name = "dashboard"
-role = "viewer"
-sha256 = "{hash_token(VIEWER)}"
-
-[[security.tokens]]
-name = "mes"
-role = "operator"
-sha256 = "{hash_token(OPERATOR)}"
-
-[[loops]]
-name = "cell"
-port = "/dev/serial/by-id/not-here"   # replaced by a simulated loop
-
-[[loops.controllers]]
-body = "1"
-
-[[loops.controllers.axes]]
-motor = 1
-name = "x"
-"""
+from tests.support.serve_process import TIME_SCALE, serve
+from tests.support.token_cell import CELL, OPERATOR, VIEWER
 
 
 async def test_encoded_token_names_are_masked_in_every_log_and_audit(tmp_path: Path) -> None:

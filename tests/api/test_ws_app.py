@@ -18,9 +18,8 @@ from websockets.asyncio.client import connect
 
 from gateway.api.app import API_PREFIX
 from gateway.service.feed import Feed
-
-from .conftest import WsClient, start_uvicorn
-from .sim_app import running_app
+from tests.support.sim_app import running_app
+from tests.support.ws_server import WsClient, start_uvicorn
 
 CLIENTS = 200
 TARGET_MM = 600.0  # axis x: 0.01 mm a pulse -> 60,000 pulses (soft limits -40 .. 940 mm)

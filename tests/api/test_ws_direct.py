@@ -9,17 +9,16 @@ import pytest
 from websockets.frames import Frame, Opcode
 from websockets.streams import StreamReader
 
-from gateway.api import ws_direct
 from gateway.api.security import AuthConfig, TokenBook, hash_token
-from gateway.api.ws_direct import direct_writer, text_frame
+from gateway.api.ws import direct as ws_direct
+from gateway.api.ws.direct import direct_writer, text_frame
 from gateway.bus.state import StateCache
 from gateway.service.config import WsSettings
 from gateway.service.events import ServiceEvents
 from gateway.service.feed import Feed, FeedClient
 from gateway.service.runtime.simulated import simulated_config
 from gateway.service.topology import Topology
-
-from .conftest import (
+from tests.support.ws_server import (
     VIEWER_TOKEN,
     CountingStats,
     MakeWsServer,

@@ -14,7 +14,7 @@ import socket
 import pytest
 from websockets.exceptions import ConnectionClosed
 
-from .conftest import MakeWsServer, WsClient
+from tests.support.ws_server import MakeWsServer, WsClient
 
 CLIENTS = 200
 BATCH = 20

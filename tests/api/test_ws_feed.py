@@ -13,8 +13,7 @@ import pytest
 from websockets.exceptions import ConnectionClosed
 
 from gateway.service.events import EventKind, ServiceEvent
-
-from .conftest import MakeWsServer, WsClient, WsServer
+from tests.support.ws_server import MakeWsServer, WsClient, WsServer
 
 
 async def changes(client: WsClient, count: int) -> list[dict[str, Any]]:
@@ -233,7 +232,7 @@ async def test_without_a_known_token_the_socket_closes_with_4401(
 
 
 async def test_the_token_in_the_authorization_header(make_ws_server: MakeWsServer) -> None:
-    from .conftest import VIEWER_TOKEN
+    from tests.support.ws_server import VIEWER_TOKEN
 
     server = await make_ws_server()
     client = await server.connect(

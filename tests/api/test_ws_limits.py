@@ -8,10 +8,9 @@ import json
 import pytest
 from websockets.exceptions import ConnectionClosed
 
-from gateway.api.ws import WS_MESSAGE_LIMIT, uvicorn_ws_options
+from gateway.api.ws.endpoint import WS_MESSAGE_LIMIT, uvicorn_ws_options
 from gateway.service.config import WsSettings
-
-from .conftest import RECV_TIMEOUT, MakeWsServer
+from tests.support.ws_server import RECV_TIMEOUT, MakeWsServer
 
 
 async def test_a_message_over_the_limit_closes_with_1009(make_ws_server: MakeWsServer):

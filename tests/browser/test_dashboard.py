@@ -15,7 +15,7 @@ import pytest
 from playwright.sync_api import Error as PlaywrightError
 from playwright.sync_api import expect
 
-from tests.browser.conftest import Gateway, Session, open_page, page_event_when, shot
+from tests.support.browser_rig import Gateway, Session, open_page, page_event_when, shot
 
 AXES = ("x", "y", "z", "theta", "gripper", "conveyor")
 

@@ -19,7 +19,7 @@ from typing import Any
 import pytest
 from playwright.sync_api import Page, WebSocketRoute, expect
 
-from tests.browser.conftest import WAIT, Gateway, Session, page_event_when
+from tests.support.browser_rig import WAIT, Gateway, Session, page_event_when
 
 #: A stop on the line: ``S`` (at once) or ``SS`` (decelerating), §10 S, SS.
 STOPS = ("S", "SS")

@@ -23,7 +23,7 @@ from typing import Any
 import pytest
 from playwright.sync_api import Browser, Page, expect
 
-from tests.browser.conftest import (
+from tests.support.browser_rig import (
     GATEWAY,
     Gateway,
     Process,

@@ -17,7 +17,7 @@ from typing import Any
 import pytest
 from playwright.sync_api import Browser, Page, Route, expect
 
-from tests.browser.conftest import Gateway, Session, open_page, shot
+from tests.support.browser_rig import Gateway, Session, open_page, shot
 
 #: A move far enough to be under way for the whole look at the page (conveyor, in pulses).
 FAR = 60_000

@@ -19,7 +19,7 @@ from typing import Any
 
 from playwright.sync_api import Page, expect
 
-from tests.browser.conftest import WAIT, Gateway, Session, shot
+from tests.support.browser_rig import WAIT, Gateway, Session, shot
 
 #: Colours of style.css the tests tell apart: an alarm badge, an ON output.
 ALARM = "rgb(255, 179, 71)"  # --warn

@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 from playwright.sync_api import Playwright
 
-from tests.browser.conftest import launch
+from tests.support.browser_rig import launch
 
 
 def test_a_missing_browser_fails_with_the_install_command(

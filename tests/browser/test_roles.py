@@ -17,7 +17,7 @@ from pathlib import Path
 import pytest
 from playwright.sync_api import Page, WebSocket, expect
 
-from tests.browser.conftest import GATEWAY, Gateway, Process, Session, free_port, shot
+from tests.support.browser_rig import GATEWAY, Gateway, Process, Session, free_port, shot
 
 TOKENS = {"watcher": ("viewer", "view-token-1"), "shift": ("operator", "op-token-1")}
 

@@ -11,10 +11,10 @@ from __future__ import annotations
 import asyncio
 
 from gateway.bus.events import BusEvent, ReplyObserved
+from gateway.bus.read_back import is_motion
 from gateway.bus.requests import Priority, TransactionResult
-from gateway.bus.verify import is_motion
-from gateway.protocol.registry import parse
-from tests.bus.conftest import MakeBus
+from gateway.protocol.command_text import parse
+from tests.support.bus_rig import MakeBus
 
 
 async def test_a_read_withdrawn_when_a_move_is_accepted_never_goes_out(

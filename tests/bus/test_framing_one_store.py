@@ -16,9 +16,9 @@ import asyncio
 from gateway.bus.events import BusEvent, FramingChanged, LinkUp
 from gateway.bus.requests import Outcome
 from gateway.bus.state import StateCache
+from gateway.protocol.command_text import parse
 from gateway.protocol.framing import POWER_ON, Framing
-from gateway.protocol.registry import parse
-from tests.bus.conftest import Bus, MakeBus
+from tests.support.bus_rig import Bus, MakeBus
 
 EL_SUM = Framing(cr_after_ack=True, checksum=True)
 

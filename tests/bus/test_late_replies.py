@@ -14,9 +14,9 @@ import pytest
 from gateway.bus.lateness import CAP, MARGIN, MOST, Lateness
 from gateway.bus.requests import Outcome
 from gateway.bus.timing import Timing
-from gateway.protocol.registry import parse
+from gateway.protocol.command_text import parse
 from gateway.sim.faults import FaultKind
-from tests.bus.conftest import MakeBus
+from tests.support.bus_rig import MakeBus
 
 #: No resend of a lost read: the next frame is another command, as when clients queue reads.
 NO_RESEND = {"resend_retries": 0}

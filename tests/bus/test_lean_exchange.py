@@ -14,10 +14,10 @@ from typing import Any
 import pytest
 
 from gateway.bus import state_records as records_module
+from gateway.protocol.command_text import parse
 from gateway.protocol.framing import Framing
-from gateway.protocol.registry import parse
 from gateway.protocol.reply_parser import MAX_LINE, ReplyEvent, ReplyParser
-from tests.bus.conftest import MakeBus
+from tests.support.bus_rig import MakeBus
 
 
 async def test_an_idle_status_poll_copies_no_state_record(

@@ -17,9 +17,9 @@ from typing import Any
 
 from gateway.bus.requests import Outcome
 from gateway.bus.state import ErrorKind, StateCache
-from gateway.protocol.registry import parse
+from gateway.protocol.command_text import parse
 from gateway.sim.faults import FaultKind
-from tests.bus.conftest import MakeBus
+from tests.support.bus_rig import MakeBus
 
 LOOP = "loop"
 

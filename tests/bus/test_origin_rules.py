@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from gateway.bus.state import StateCache
 from gateway.bus.state_types import Origin
-from gateway.protocol.registry import parse
+from gateway.protocol.command_text import parse
 from gateway.protocol.replies import decode_reply
 
 LOOP = "L1"

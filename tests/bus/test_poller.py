@@ -17,10 +17,10 @@ from gateway.bus.poller import PollConfig, Poller, attach
 from gateway.bus.requests import Priority
 from gateway.bus.scheduler import LoopScheduler
 from gateway.bus.state import Change, ErrorKind, StateCache
-from gateway.protocol.registry import parse
+from gateway.protocol.command_text import parse
 from gateway.protocol.reply_values import ProgramState, StatusFlags
 from gateway.sim.clock import RecordKind
-from tests.bus.poll_rig import ALL_BODIES, LOOP, SKIPPED, Rig, close_rigs, move, start_rig
+from tests.support.poll_rig import ALL_BODIES, LOOP, SKIPPED, Rig, close_rigs, move, start_rig
 
 
 @pytest.fixture

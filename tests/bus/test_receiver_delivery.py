@@ -8,11 +8,11 @@ import asyncio
 from gateway.bus.config import LoopConfig
 from gateway.bus.events import BusEvent, ReplyObserved
 from gateway.bus.scheduler import LoopScheduler
-from gateway.protocol.registry import parse
+from gateway.protocol.command_text import parse
 from gateway.sim.serve import SimPort
 from gateway.transport.base import ReceiveBuffer, Sink, TransportClosed
 from gateway.transport.pipe import PipeTransport
-from tests.bus.conftest import HOST_LATENCY, SCALE, Bus, MakeBus
+from tests.support.bus_rig import HOST_LATENCY, SCALE, Bus, MakeBus
 
 QUERIES = ["", "9", "A005D", "2D", "OX", "97"]
 

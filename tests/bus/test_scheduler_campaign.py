@@ -21,14 +21,14 @@ import pytest
 from gateway.bus.config import LoopConfig
 from gateway.bus.requests import Outcome, Priority
 from gateway.bus.scheduler import LoopScheduler
-from gateway.protocol.registry import parse
+from gateway.protocol.command_text import parse
 from gateway.sim.cli import build_loop
 from gateway.sim.clock import SimClock
 from gateway.sim.faults import FaultKind, FaultRule, Faults
 from gateway.sim.loop import SimLoop
 from gateway.sim.serve import PtyLine
 from gateway.transport.serial_line import SerialLine
-from tests.bus.conftest import HOST_LATENCY, SCALE, MakeBus
+from tests.support.bus_rig import HOST_LATENCY, SCALE, MakeBus
 
 BODIES = "123"
 MOTORS = (1, 2)

@@ -21,11 +21,11 @@ from gateway.bus.requests import (
     TransactionError,
 )
 from gateway.protocol import commands as cmd
-from gateway.protocol.registry import parse
+from gateway.protocol.command_text import parse
 from gateway.protocol.reply_values import StatusFlags
 from gateway.sim.clock import RecordKind
 from gateway.sim.faults import FaultKind
-from tests.bus.conftest import MakeBus
+from tests.support.bus_rig import MakeBus
 
 
 async def test_a_query_goes_out_as_the_manual_frames_it(make_bus: MakeBus) -> None:

@@ -9,11 +9,11 @@ import asyncio
 from gateway.bus.events import ReplyObserved, UnsolicitedMessage
 from gateway.bus.requests import Outcome, ReplyKind
 from gateway.protocol import commands as cmd
-from gateway.protocol.registry import parse
+from gateway.protocol.command_text import parse
 from gateway.protocol.reply_parser import UnsolicitedKind
 from gateway.sim.clock import RecordKind
 from gateway.sim.faults import FaultKind
-from tests.bus.conftest import MakeBus
+from tests.support.bus_rig import MakeBus
 
 
 async def test_dw_holds_the_line_until_its_message(make_bus: MakeBus) -> None:

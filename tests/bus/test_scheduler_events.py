@@ -4,9 +4,9 @@ from __future__ import annotations
 
 from gateway.bus.events import BusEvent, EventBus, LinkUp, ReplyObserved
 from gateway.bus.requests import Outcome, ReplyKind
-from gateway.protocol.registry import parse
+from gateway.protocol.command_text import parse
 from gateway.sim.faults import FaultKind
-from tests.bus.conftest import MakeBus
+from tests.support.bus_rig import MakeBus
 
 
 def test_callbacks_get_every_event_in_order() -> None:

@@ -9,12 +9,12 @@ from __future__ import annotations
 
 from gateway.bus.events import FramingChanged, UnsolicitedMessage
 from gateway.bus.requests import Outcome
+from gateway.protocol.command_text import parse
 from gateway.protocol.framing import Framing
-from gateway.protocol.registry import parse
 from gateway.protocol.reply_values import StatusFlags
 from gateway.sim.clock import RecordKind
 from gateway.sim.faults import FaultKind
-from tests.bus.conftest import Bus, MakeBus
+from tests.support.bus_rig import Bus, MakeBus
 
 PROBES = ["SUM", "EE", "EL", "ER"]
 

@@ -9,8 +9,8 @@ import pytest
 from gateway.bus.events import BusEvent, LinkDown, LinkUp
 from gateway.bus.requests import LoopDown, Outcome
 from gateway.bus.scheduler import LinkState
-from gateway.protocol.registry import parse
-from tests.bus.conftest import Bus, MakeBus
+from gateway.protocol.command_text import parse
+from tests.support.bus_rig import Bus, MakeBus
 
 
 def waiter(bus: Bus, kind: type[BusEvent]) -> asyncio.Event:

@@ -5,11 +5,11 @@ from __future__ import annotations
 import asyncio
 
 from gateway.bus.requests import Outcome, Priority, ReplyKind
+from gateway.protocol.command_text import parse
 from gateway.protocol.program import parse_program
-from gateway.protocol.registry import parse
 from gateway.sim.clock import RecordKind
 from gateway.sim.faults import FaultKind
-from tests.bus.conftest import Bus, MakeBus
+from tests.support.bus_rig import Bus, MakeBus
 
 # Move, wait, move back (§11-4 style); written in 16-byte pieces: several writes.
 TEXT = "//22000//3//T10//4//?//T10//5//?//END"

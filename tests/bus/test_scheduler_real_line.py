@@ -20,13 +20,13 @@ from gateway.bus.config import LoopConfig
 from gateway.bus.events import BusEvent, LinkDown, LinkUp
 from gateway.bus.requests import LoopDown
 from gateway.bus.scheduler import LinkState, LoopScheduler
-from gateway.protocol.registry import parse
+from gateway.protocol.command_text import parse
 from gateway.sim.cli import build_loop
 from gateway.sim.clock import SimClock
 from gateway.sim.loop import SimLoop
 from gateway.sim.serve import PtyLine, serve_tcp
 from gateway.transport.serial_line import SerialLine
-from tests.bus.conftest import HOST_LATENCY, SCALE
+from tests.support.bus_rig import HOST_LATENCY, SCALE
 
 
 def _config() -> LoopConfig:

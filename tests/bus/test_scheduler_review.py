@@ -19,10 +19,10 @@ from gateway.bus.events import ReplyObserved
 from gateway.bus.requests import LoopDown, Outcome, Priority, TransactionError
 from gateway.bus.scheduler import LoopScheduler
 from gateway.protocol import commands as cmd
-from gateway.protocol.registry import parse
+from gateway.protocol.command_text import parse
 from gateway.sim.faults import FaultKind
 from gateway.transport.base import Transport, TransportClosed
-from tests.bus.conftest import MakeBus
+from tests.support.bus_rig import MakeBus
 
 
 def _block() -> list[object]:

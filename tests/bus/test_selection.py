@@ -16,11 +16,11 @@ from gateway.bus.requests import DeadlineExpired, Outcome, ReplyKind
 from gateway.bus.selection import after_accepted, needs_selection, selection_from_reply
 from gateway.bus.state import StateCache
 from gateway.protocol import commands as cmd
+from gateway.protocol.command_text import parse
 from gateway.protocol.framing import Framing
-from gateway.protocol.registry import parse
 from gateway.protocol.reply_values import ConditionFlags
 from gateway.sim.faults import FaultKind, FaultRule
-from tests.bus.conftest import MakeBus
+from tests.support.bus_rig import MakeBus
 
 
 def test_which_commands_need_the_selection() -> None:

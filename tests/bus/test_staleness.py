@@ -7,7 +7,7 @@ from typing import Any
 
 from gateway.bus.state import StateCache
 from gateway.bus.state_types import Change
-from tests.bus.test_state import LOOP, reply
+from tests.support.state_replies import LOOP, reply
 
 
 class CountingAxes(dict[Any, Any]):

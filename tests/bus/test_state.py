@@ -14,19 +14,11 @@ from gateway.bus.state import (
     ErrorKind,
     StateCache,
 )
+from gateway.protocol.command_text import parse
 from gateway.protocol.framing import Framing
-from gateway.protocol.registry import parse
 from gateway.protocol.replies import decode_reply
 from gateway.protocol.reply_values import ProgramState
-
-LOOP = "L1"
-
-
-def reply(cache: StateCache, text: str, data: str | None, time: float, body: str = "1") -> None:
-    """Feed the reply ``data`` (None: '>') of ``body`` to the command ``text``."""
-    command = parse(text)
-    value = None if data is None else decode_reply(command.reply_format, data)
-    cache.observe(LOOP, body, command, value, time)
+from tests.support.state_replies import LOOP, reply
 
 
 def test_an_error_a_read_cleared_stays_until_acknowledged() -> None:

@@ -13,8 +13,8 @@ import asyncio
 from gateway.bus.events import BusEvent, ReplyObserved
 from gateway.bus.requests import Outcome, Priority, ReplyKind, TransactionResult
 from gateway.bus.trace import FrameDirection
-from gateway.protocol.registry import parse
-from tests.bus.conftest import Bus, MakeBus
+from gateway.protocol.command_text import parse
+from tests.support.bus_rig import Bus, MakeBus
 
 #: Eight reads of program lines (§10 A: a query, shared by both motors).
 READS = [f"A{n:03d}D" for n in range(8)]

@@ -16,8 +16,8 @@ from gateway.bus.poller import PollConfig, Poller, attach
 from gateway.bus.requests import Priority
 from gateway.bus.scheduler import LoopScheduler
 from gateway.bus.state import ErrorKind, StateCache
-from gateway.protocol.registry import parse
-from tests.bus.test_poller import LOOP, Rig, close_rigs, start_rig
+from gateway.protocol.command_text import parse
+from tests.support.poll_rig import LOOP, Rig, close_rigs, start_rig
 
 ORDERS = ("cache first", "cache last")
 

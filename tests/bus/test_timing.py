@@ -9,8 +9,8 @@ from __future__ import annotations
 import pytest
 
 from gateway.bus.timing import Timing, ack_chars, char_time, reply_chars, wire_time
+from gateway.protocol.command_text import parse
 from gateway.protocol.framing import Framing
-from gateway.protocol.registry import parse
 
 PLAIN = Framing()
 

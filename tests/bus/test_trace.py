@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 from gateway.bus.trace import FrameDirection, LineTrace
-from gateway.protocol.registry import parse
-from tests.bus.conftest import MakeBus
+from gateway.protocol.command_text import parse
+from tests.support.bus_rig import MakeBus
 
 
 def test_the_trace_is_off_until_switched_on_and_bounded() -> None:

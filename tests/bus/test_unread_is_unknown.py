@@ -9,8 +9,8 @@ position was never read.
 from __future__ import annotations
 
 from gateway.bus.state import StateCache
-from gateway.protocol.registry import parse
-from tests.bus.conftest import MakeBus
+from gateway.protocol.command_text import parse
+from tests.support.bus_rig import MakeBus
 
 
 async def test_a_restarted_gateway_claims_nothing_of_a_moving_controller_before_reading_it(

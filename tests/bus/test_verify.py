@@ -9,17 +9,17 @@ from __future__ import annotations
 
 import pytest
 
-from gateway.bus.requests import Outcome, ReplyKind
-from gateway.bus.verify import (
+from gateway.bus.read_back import (
     motion_outcome,
     resendable,
     value_check,
     value_outcome,
 )
-from gateway.protocol.registry import parse
+from gateway.bus.requests import Outcome, ReplyKind
+from gateway.protocol.command_text import parse
 from gateway.protocol.reply_values import ErrorOutput, ErrorWatch, PortByte, StatusFlags
 from gateway.sim.faults import FaultKind
-from tests.bus.conftest import MakeBus
+from tests.support.bus_rig import MakeBus
 
 STOPPED = StatusFlags()
 MOVING = StatusFlags(moving=True)

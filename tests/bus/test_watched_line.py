@@ -20,7 +20,7 @@ import pytest
 from gateway.bus.poller import PollConfig, Poller, attach
 from gateway.bus.scheduler import LoopScheduler
 from gateway.bus.state import Change, StateCache
-from tests.bus.poll_rig import ALL_BODIES, LOOP, SKIPPED, Rig, close_rigs, move, start_rig
+from tests.support.poll_rig import ALL_BODIES, LOOP, SKIPPED, Rig, close_rigs, move, start_rig
 
 DEFAULTS = PollConfig()
 #: an idle controller's status reads while an axis is watched, as a site may space them: 2 s

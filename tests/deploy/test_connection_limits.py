@@ -21,7 +21,7 @@ from websockets.asyncio.client import connect as ws_connect
 
 from gateway.api.security import hash_token
 from gateway.service.config import ConfigError, parse_config
-from tests.serve_process import TIME_SCALE, Served, serve
+from tests.support.serve_process import TIME_SCALE, Served, serve
 
 OPERATOR = "OPERtok-conn-4c1d9e7a"
 WAIT = 15.0

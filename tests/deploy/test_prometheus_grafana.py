@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.api.sim_app import running_app
+from tests.support.sim_app import running_app
 
 DEPLOY = Path(__file__).resolve().parents[2] / "deploy"
 PROMETHEUS = DEPLOY / "prometheus"

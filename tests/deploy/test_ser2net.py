@@ -22,8 +22,8 @@ from gateway.api.security import AuthConfig
 from gateway.cli.serve import open_lines
 from gateway.service.config import load_config
 from gateway.service.runtime import Runtime
-from tests.serve_process import free_port
-from tests.sim_process import sim_on_pty
+from tests.support.serve_process import free_port
+from tests.support.sim_process import sim_on_pty
 
 DEPLOY = Path(__file__).parents[2] / "deploy" / "ser2net"
 SCALE = 20.0

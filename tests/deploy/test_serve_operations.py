@@ -16,7 +16,7 @@ import httpx
 
 from gateway import __version__
 from gateway.cli import main
-from tests.serve_process import TIME_SCALE, serve
+from tests.support.serve_process import TIME_SCALE, serve
 
 
 def test_version(capsys: object) -> None:

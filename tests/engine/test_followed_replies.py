@@ -5,10 +5,10 @@ follows, so an idle poll of an unwatched controller costs the channel one messag
 from __future__ import annotations
 
 from gateway.bus.events import BusEvent, ReplyObserved, TransactionDone
-from gateway.protocol.registry import parse
+from gateway.protocol.command_text import parse
 from gateway.service.events import EventKind, ServiceEvent, ServiceEvents
 from gateway.service.runtime.followed import FollowedControllers
-from tests.engine.conftest import Attach, MakeBus
+from tests.support.engine_rig import Attach, MakeBus
 
 
 async def test_reply_events_cross_for_followed_controllers_only(

@@ -9,8 +9,8 @@ conftest.py); the poller reads the simulated controller at rest.
 from __future__ import annotations
 
 from gateway.bus.state_types import Change
-from tests.engine.conftest import Attach, MakeBus
-from tests.state_waits import until_state
+from tests.support.engine_rig import Attach, MakeBus
+from tests.support.state_waits import until_state
 
 #: Real seconds to wait for a condition.
 WAIT = 10.0
@@ -21,8 +21,8 @@ async def test_an_idle_poll_moves_the_mirrors_reply_time_without_a_change(
 ) -> None:
     bus = await make_bus("1")
     linked = await attach(bus)
-    proxy = linked.client.proxies[bus.scheduler.name]
-    mirror, cache = linked.client.mirror, bus.scheduler.state_cache
+    proxy = linked.proxy
+    mirror, cache = linked.mirror, linked.cache
     await proxy.polling(True)
 
     def axis_updated() -> float | None:

@@ -18,11 +18,11 @@ from gateway.bus.lifecycle import LinkState
 from gateway.bus.requests import Priority
 from gateway.bus.trace import FrameDirection
 from gateway.engine.proxy import SchedulerProxy
-from gateway.protocol.registry import parse
+from gateway.protocol.command_text import parse
 from gateway.service.config import parse_config
 from gateway.service.runtime.runtime import Runtime
-from tests.restart_rig import WAIT, RestartRig
-from tests.state_waits import until_state
+from tests.support.restart_rig import WAIT, RestartRig
+from tests.support.state_waits import until_state
 
 SCALE = 2.0
 

@@ -11,8 +11,8 @@ from gateway.bus.events import BusEvent, TransactionDone, TransactionsTallied
 from gateway.bus.poll_plan import PollConfig
 from gateway.bus.requests import Priority
 from gateway.engine.tally import TALLY_PERIOD
-from gateway.protocol.registry import parse
-from tests.engine.conftest import Attach, Linked, MakeBus
+from gateway.protocol.command_text import parse
+from tests.support.engine_rig import Attach, Linked, MakeBus
 
 
 class Seen:
@@ -21,7 +21,7 @@ class Seen:
     def __init__(self, linked: Linked) -> None:
         self.events: list[BusEvent] = []
         self._changed = asyncio.Event()
-        proxy = linked.client.proxies[linked.bus.scheduler.name]
+        proxy = linked.proxy
         proxy.events.subscribe(self._take)
 
     def _take(self, event: BusEvent) -> None:
@@ -51,7 +51,7 @@ class Seen:
 async def _follow(linked: Linked, followed: frozenset[tuple[str, str]]) -> None:
     """Tell the worker whom the client follows; a request after it proves it arrived (the
     channel keeps the order)."""
-    proxy = linked.client.proxies[linked.bus.scheduler.name]
+    proxy = linked.proxy
     linked.client.follow(followed)
     await proxy.submit("1", parse("A005D"))
 
@@ -61,7 +61,7 @@ async def test_idle_polls_of_an_unfollowed_controller_cross_in_one_tally_a_perio
 ) -> None:
     bus = await make_bus("1")
     linked = await attach(bus, PollConfig(idle_period=0.05))
-    proxy = linked.client.proxies[bus.scheduler.name]
+    proxy = linked.proxy
     await _follow(linked, frozenset())
     seen = Seen(linked)
     before = bus.scheduler.counters.transactions
@@ -90,7 +90,7 @@ async def test_a_request_and_a_followed_controllers_polls_cross_at_once(
 ) -> None:
     bus = await make_bus("1")
     linked = await attach(bus, PollConfig(idle_period=0.05))
-    proxy = linked.client.proxies[bus.scheduler.name]
+    proxy = linked.proxy
     await _follow(linked, frozenset({(proxy.name, "1")}))
     seen = Seen(linked)
 

@@ -12,8 +12,8 @@ from typing import Any
 from gateway.bus.requests import DeadlineExpired, LoopDown
 from gateway.bus.state_types import Change
 from gateway.engine.wire import Kind, decode_error, encode, encode_error
+from gateway.protocol.command_text import parse
 from gateway.protocol.program import parse_program
-from gateway.protocol.registry import parse
 
 
 def _across(message: tuple[Any, ...]) -> tuple[Any, ...]:

@@ -19,10 +19,10 @@ from gateway.bus.lifecycle import LinkState
 from gateway.bus.requests import LoopDown, Outcome, TransactionError
 from gateway.bus.state_types import AxisState, Change, ControllerState
 from gateway.engine.wire import Kind, encode
+from gateway.protocol.command_text import parse
 from gateway.protocol.program import parse_program
-from gateway.protocol.registry import parse
-from tests.engine.conftest import Attach, MakeBus
-from tests.state_waits import until_state
+from tests.support.engine_rig import Attach, MakeBus
+from tests.support.state_waits import until_state
 
 
 def _without_time(record: AxisState | ControllerState) -> AxisState | ControllerState:
@@ -35,7 +35,7 @@ async def test_a_request_through_the_worker_reaches_the_wire_and_its_reply_comes
 ) -> None:
     bus = await make_bus("1")
     linked = await attach(bus)
-    proxy = linked.client.proxies[bus.scheduler.name]
+    proxy = linked.proxy
     assert proxy.state is LinkState.UP
     result = await proxy.submit("1", [parse("A0051234"), parse("A005D")])
     assert result.outcome is Outcome.DONE
@@ -48,8 +48,8 @@ async def test_the_mirror_follows_the_worker_state_change_by_change(
 ) -> None:
     bus = await make_bus("1")
     linked = await attach(bus)
-    proxy = linked.client.proxies[bus.scheduler.name]
-    mirror, cache = linked.client.mirror, bus.scheduler.state_cache
+    proxy = linked.proxy
+    mirror, cache = linked.mirror, linked.cache
     await proxy.submit("1", parse("7"), motor=1)  # jog motor 1: the cache learns it moves
     await until_state(mirror, lambda: mirror.axis(proxy.name, "1", 1).moving is True, 5.0)
     await proxy.stop("1", parse("S"))
@@ -72,7 +72,7 @@ async def test_the_bus_errors_cross_with_their_class_and_fields(
 ) -> None:
     bus = await make_bus("1")
     linked = await attach(bus)
-    proxy = linked.client.proxies[bus.scheduler.name]
+    proxy = linked.proxy
     with pytest.raises(TransactionError) as far:
         await proxy.submit("F", parse(""))  # F is the inspection mode, not a body (§3-III)
     with pytest.raises(TransactionError) as near:
@@ -90,7 +90,7 @@ async def test_a_stop_overtakes_a_request_stuck_on_the_request_channel(
 ) -> None:
     bus = await make_bus("1")
     linked = await attach(bus)
-    proxy = linked.client.proxies[bus.scheduler.name]
+    proxy = linked.proxy
     await proxy.submit("1", parse("7"), motor=1)
     # A request whose bytes are only half in: the worker's request reader waits for the rest.
     frame = encode((Kind.SUBMIT, 999, proxy.name, "1", (parse(""),), None, None, None))
@@ -107,7 +107,7 @@ async def test_a_worker_gone_fails_its_requests_and_a_new_attachment_resyncs_the
 ) -> None:
     bus = await make_bus("1")
     linked = await attach(bus)
-    proxy = linked.client.proxies[bus.scheduler.name]
+    proxy = linked.proxy
     await linked.disconnect("line worker w0 was killed")
     assert proxy.state is LinkState.DOWN and proxy.cause == "line worker w0 was killed"
     with pytest.raises(LoopDown, match="killed"):
@@ -115,11 +115,11 @@ async def test_a_worker_gone_fails_its_requests_and_a_new_attachment_resyncs_the
     # Meanwhile the worker's loop goes on: a change the client never saw ...
     await bus.scheduler.submit("1", parse("7"), motor=1)
     assert bus.scheduler.state_cache.axis(proxy.name, "1", 1).moving is True
-    assert linked.client.mirror.axis(proxy.name, "1", 1).moving is not True
+    assert linked.mirror.axis(proxy.name, "1", 1).moving is not True
     # ... is in the snapshot a new attachment starts with.
     await linked.connect()
     assert proxy.state is LinkState.UP
-    assert linked.client.mirror.axis(proxy.name, "1", 1).moving is True
+    assert linked.mirror.axis(proxy.name, "1", 1).moving is True
     await proxy.stop("1")
 
 
@@ -128,7 +128,7 @@ async def test_the_loop_counters_cross_with_each_transaction(
 ) -> None:
     bus = await make_bus("1")
     linked = await attach(bus)
-    proxy = linked.client.proxies[bus.scheduler.name]
+    proxy = linked.proxy
     before = proxy.snapshot().transactions
     await proxy.submit("1", parse("A005D"))
     await proxy.submit("1", parse("A006D"))
@@ -141,7 +141,7 @@ async def test_the_loop_counters_cross_with_each_transaction(
 async def test_a_program_upload_goes_through_the_worker(make_bus: MakeBus, attach: Attach) -> None:
     bus = await make_bus("1", upload_chunk=16)
     linked = await attach(bus)
-    proxy = linked.client.proxies[bus.scheduler.name]
+    proxy = linked.proxy
     program = parse_program("//22000//3//T10//4//?//T10//5//?//END")
     result = await proxy.upload_program("1", program)
     assert result.outcome is Outcome.DONE
@@ -153,8 +153,8 @@ async def test_the_poller_is_started_and_stopped_through_the_worker(
 ) -> None:
     bus = await make_bus("1")
     linked = await attach(bus)
-    proxy = linked.client.proxies[bus.scheduler.name]
-    mirror = linked.client.mirror
+    proxy = linked.proxy
+    mirror = linked.mirror
     assert mirror.controller(proxy.name, "1").online is None  # nobody polled it yet
     await proxy.polling(True)
     await until_state(mirror, lambda: mirror.controller(proxy.name, "1").online is True, 5.0)
@@ -167,7 +167,7 @@ async def test_a_reopen_at_another_rate_comes_back_as_the_link_events(
 ) -> None:
     bus = await make_bus("1")
     linked = await attach(bus)
-    proxy = linked.client.proxies[bus.scheduler.name]
+    proxy = linked.proxy
     downs: list[LinkDown] = []
     seen = asyncio.Event()
 
@@ -190,7 +190,7 @@ async def test_the_supervisors_word_on_a_death_is_the_last_whatever_the_readers_
     # ended while that reader is still cancelling the other: requests must get the latter.
     bus = await make_bus("1")
     linked = await attach(bus)
-    proxy = linked.client.proxies[bus.scheduler.name]
+    proxy = linked.proxy
     reader = asyncio.create_task(linked.client.detach("line worker w0 went away"))
     supervisor = asyncio.create_task(
         linked.client.detach("line worker w0 was killed by SIGKILL", retry_after=3.0)
@@ -212,8 +212,8 @@ async def test_the_proxy_says_what_the_mirror_says_of_the_link_as_soon_as_it_say
     # the loop is down (or up) and asking REST at once must hear the same from the proxy.
     bus = await make_bus("1")
     linked = await attach(bus)
-    proxy = linked.client.proxies[bus.scheduler.name]
-    mirror = linked.client.mirror
+    proxy = linked.proxy
+    mirror = linked.mirror
     seen: list[tuple[bool, LinkState]] = []
     back = asyncio.Event()
 

@@ -23,11 +23,11 @@ from gateway.bus.poll_plan import PollConfig
 from gateway.bus.requests import LoopDown
 from gateway.engine.mirror import StateMirror
 from gateway.engine.proxy import WorkerClient
-from gateway.engine.spec import LoopSpec
 from gateway.engine.supervisor import WorkerSupervisor
-from gateway.protocol.registry import parse
-from tests.restart_rig import WAIT, RestartRig
-from tests.state_waits import until_state
+from gateway.engine.worker_spec import LoopSpec
+from gateway.protocol.command_text import parse
+from tests.support.restart_rig import WAIT, RestartRig
+from tests.support.state_waits import until_state
 
 SCALE = 1.0
 #: Real seconds between a worker's death and its next start, in this test.

@@ -22,13 +22,13 @@ from typing import Any
 import pytest
 from websockets.asyncio.client import connect
 
-from gateway.api import ws
-from gateway.api.fresh_reads import FreshReadGate
+from gateway.api.middleware.fresh_reads import FreshReadGate
+from gateway.api.ws import endpoint as ws
 from gateway.cli.connection_guard import ConnectionBook, uvicorn_connection_options
 from gateway.service.config import ConnectionSettings
-from tests.api.conftest import start_uvicorn
-from tests.api.sim_app import running_app
-from tests.state_waits import until_state
+from tests.support.sim_app import running_app
+from tests.support.state_waits import until_state
+from tests.support.ws_server import start_uvicorn
 
 TOPICS = ["axis:*", "controller:*", "loop:*", "events"]
 CYCLES = 200
@@ -58,9 +58,7 @@ async def _ws_cycle(port: int, vanish: bool) -> None:
             client.transport.abort()
 
 
-async def _request(
-    reader: asyncio.StreamReader, writer: asyncio.StreamWriter, path: str
-) -> int:
+async def _request(reader: asyncio.StreamReader, writer: asyncio.StreamWriter, path: str) -> int:
     writer.write(f"GET {path} HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n".encode())
     status = int((await reader.readline()).split()[1])
     length = 0

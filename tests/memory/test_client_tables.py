@@ -5,8 +5,8 @@ from __future__ import annotations
 from typing import Any
 
 from gateway.api.auth_failures import BACKOFF_MAX, FORGET_AFTER, FREE_FAILURES, AuthFailures
-from gateway.api.idempotency import MEMORY_KEYS, IdempotencyStore
-from tests.api.test_auth_failures import FakeClock
+from gateway.api.middleware.idempotency import MEMORY_KEYS, IdempotencyStore
+from tests.support.fake_clock import FakeClock
 
 
 def test_addresses_that_failed_long_ago_are_forgotten() -> None:

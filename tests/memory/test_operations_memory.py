@@ -7,7 +7,7 @@ import gc
 import weakref
 
 from gateway.service.operations.registry import MEMORY
-from tests.api.sim_app import json_of, running_app
+from tests.support.sim_app import json_of, running_app
 
 
 def test_the_default_depth_is_what_the_api_serves_fast():

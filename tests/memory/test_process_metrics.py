@@ -9,8 +9,8 @@ import sys
 import time
 from pathlib import Path
 
-from tests.api.sim_app import running_app
-from tests.api.test_metrics import parse_exposition
+from tests.support.exposition import parse_exposition
+from tests.support.sim_app import running_app
 
 
 def _by_role(family: object) -> dict[str, dict[str, float]]:

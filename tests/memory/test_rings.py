@@ -7,7 +7,7 @@ import pytest
 from gateway.bus.trace import TRACE_BYTES, FrameDirection, LineTrace
 from gateway.rings import BoundedRing
 from gateway.service import feed as feed_module
-from tests.api.test_ws_feed_core import drain, make_feed, position
+from tests.support.feed_rig import drain, make_feed, position
 
 
 def test_a_ring_keeps_its_count_and_its_bytes_and_the_newest_item():

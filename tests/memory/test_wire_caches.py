@@ -14,8 +14,8 @@ from collections.abc import Iterator
 from typing import Any
 
 from gateway.engine.wire import TEXT_CACHE_SIZE, Kind, encode
+from gateway.protocol.command_text import parse
 from gateway.protocol.models import Command
-from gateway.protocol.registry import parse
 
 
 def _across(command: Command) -> Command:

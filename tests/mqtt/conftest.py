@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.mqtt.broker import Broker, Central
+from tests.support.mqtt_broker import Broker, Central
 
 
 @pytest.fixture

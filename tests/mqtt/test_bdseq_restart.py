@@ -7,7 +7,7 @@ from __future__ import annotations
 import asyncio
 from pathlib import Path
 
-from tests.mqtt.broker import WAIT, Broker, Cell, Central
+from tests.support.mqtt_broker import WAIT, Broker, Cell, Central
 
 
 async def test_bdseq_goes_on_after_a_kill_and_after_a_clean_stop(

@@ -1,6 +1,6 @@
 """DCMD stop and acknowledge: off by default; when on, an operator token, audited.
 
-The app and its gateway run in-process on the simulated loop (tests/api/sim_app.py: the real
+The app and its gateway run in-process on the simulated loop (tests/support/sim_app.py: the real
 serial code path through the simulator's pipe); the edge node is wired as ``serve`` wires it
 (the API's token book and audit log) and talks to a real mosquitto. What the controller heard
 is read from the simulator's line log.
@@ -16,9 +16,9 @@ from contextlib import asynccontextmanager
 from gateway.mqtt.commands import DeviceCommands
 from gateway.mqtt.edge_node import EdgeNode
 from gateway.service.config import MqttSettings
-from tests.api.sim_app import TOKENS, Api, running_app
-from tests.mqtt.broker import Broker, Central
 from tests.mqtt.sparkplug_decoder import command
+from tests.support.mqtt_broker import Broker, Central
+from tests.support.sim_app import TOKENS, Api, running_app
 
 DCMD = "spBv1.0/plant/DCMD/cmd/gantry"
 

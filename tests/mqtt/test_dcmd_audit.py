@@ -15,7 +15,7 @@ from typing import Any
 from gateway.api.audit_log import AuditLog
 from gateway.mqtt.commands import DeviceCommands
 from gateway.mqtt.sparkplug import Value
-from tests.api.sim_app import TOKENS, running_app
+from tests.support.sim_app import TOKENS, running_app
 
 TOPIC = "spBv1.0/plant/DCMD/cmd/gantry"
 

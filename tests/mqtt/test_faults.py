@@ -5,7 +5,7 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from tests.mqtt.broker import Broker, Cell, Central
+from tests.support.mqtt_broker import Broker, Cell, Central
 
 DEVICES = ("gantry", "head", "handler")
 

@@ -7,24 +7,11 @@ import asyncio
 import logging
 from pathlib import Path
 
-from tests.mqtt.broker import Broker, Central
 from tests.mqtt.in_process import edge_node
+from tests.support.mqtt_broker import Broker, Central
+from tests.support.mqtt_refusals import Refusals
 
 PASSWORD = "pw-7f3a9c"
-
-
-class Refusals(logging.Handler):
-    """Every record of ``gateway.mqtt``; ``refused`` set at the first reconnect warning."""
-
-    def __init__(self) -> None:
-        super().__init__(logging.DEBUG)
-        self.texts: list[str] = []
-        self.refused = asyncio.Event()
-
-    def emit(self, record: logging.LogRecord) -> None:
-        self.texts.append(self.format(record))
-        if record.levelno == logging.WARNING and "again in" in record.getMessage():
-            self.refused.set()
 
 
 async def test_the_node_logs_in_and_a_wrong_password_is_refused_without_showing_it(

@@ -10,10 +10,10 @@ import time
 import pytest
 
 from gateway.mqtt.primary_host import PrimaryHost
-from tests.mqtt.broker import Broker, Central
 from tests.mqtt.in_process import edge_node
 from tests.mqtt.logs import mqtt_lines
 from tests.mqtt.sparkplug_decoder import command
+from tests.support.mqtt_broker import Broker, Central
 
 STATE = "spBv1.0/STATE/scada"
 

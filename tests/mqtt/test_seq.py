@@ -1,18 +1,18 @@
 """``seq`` and the bounded queue, on the edge node in-process and a real mosquitto.
 
 The state cache is fed the way the loop scheduler feeds it (``StateCache.handle`` of
-``ReplyObserved``, as tests/api/conftest.py does), so the test decides how many changes
+``ReplyObserved``, as tests/support/ws_server.py does), so the test decides how many changes
 happen: 300 positions give 300 DDATA, past 255 -> 0.
 """
 
 from __future__ import annotations
 
 from gateway.bus.events import ReplyObserved
-from gateway.protocol.registry import parse
+from gateway.protocol.command_text import parse
 from gateway.service.runtime.runtime import Runtime
 from gateway.service.runtime.simulated import SIM_LOOP
-from tests.mqtt.broker import Broker, Central, seqs_in_order
 from tests.mqtt.in_process import edge_node
+from tests.support.mqtt_broker import Broker, Central, seqs_in_order
 
 
 def position(gateway: Runtime, pulses: int, at: float) -> None:

@@ -7,10 +7,10 @@ import asyncio
 import logging
 import time
 
-from tests.mqtt.broker import Broker, Central
 from tests.mqtt.in_process import edge_node
 from tests.mqtt.logs import mqtt_lines
 from tests.mqtt.sparkplug_decoder import command
+from tests.support.mqtt_broker import Broker, Central
 
 NCMD = "spBv1.0/plant/NCMD/fed"
 

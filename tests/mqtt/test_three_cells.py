@@ -18,7 +18,7 @@ from pathlib import Path
 import httpx
 from websockets.asyncio.client import connect
 
-from tests.mqtt.broker import WAIT, Broker, Cell, Central, seqs_in_order
+from tests.support.mqtt_broker import WAIT, Broker, Cell, Central, seqs_in_order
 
 CELLS = ("cell-a", "cell-b", "cell-c")
 DEVICES = {"gantry": ("x", "y"), "head": ("z", "theta"), "handler": ("gripper", "conveyor")}

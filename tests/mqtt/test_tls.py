@@ -10,9 +10,9 @@ from pathlib import Path
 
 import trustme
 
-from tests.mqtt.broker import Broker, Central
 from tests.mqtt.in_process import edge_node
-from tests.mqtt.test_login import Refusals
+from tests.support.mqtt_broker import Broker, Central
+from tests.support.mqtt_refusals import Refusals
 
 
 async def test_the_node_speaks_tls_to_a_broker_its_ca_signed(tmp_path: Path) -> None:

@@ -21,7 +21,7 @@ from asyncua.ua.ua_binary import nodeid_to_binary, struct_to_binary
 
 from gateway.opcua.call_lanes import install_call_lanes, pending_calls
 from tests.opcua.client import call, node, run_client
-from tests.opcua.conftest import OPERATOR, Cell
+from tests.support.opcua_cell import OPERATOR, Cell
 
 pytestmark = pytest.mark.asyncio(loop_scope="module")
 

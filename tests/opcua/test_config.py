@@ -10,7 +10,7 @@ import pytest
 from cryptography import x509
 
 from gateway.cli import main
-from tests.config_checks import problems_of
+from tests.support.config_checks import problems_of
 
 DIGEST = hashlib.sha256(b"operator-token-0123456789").hexdigest()
 

@@ -10,7 +10,7 @@ from typing import Any
 import pytest
 
 from tests.opcua.client import call, node, run_client, run_sessions, session
-from tests.opcua.conftest import OPERATOR, VIEWER, Cell
+from tests.support.opcua_cell import OPERATOR, VIEWER, Cell
 
 pytestmark = pytest.mark.asyncio(loop_scope="module")
 

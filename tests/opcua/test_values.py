@@ -12,7 +12,7 @@ from asyncua import ua
 from gateway.bus.state import StateCache
 from gateway.bus.state_types import Origin
 from gateway.errors import ConflictError, DeviceError, InvalidInputError, NotFoundError
-from gateway.opcua.status import freshness, refusal_status
+from gateway.opcua.status_codes import freshness, refusal_status
 from gateway.opcua.values import (
     AXIS_VARIABLES,
     Shown,

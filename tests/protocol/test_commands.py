@@ -1,7 +1,7 @@
 """The typed command constructors build exactly what ``parse`` builds from the same text.
 
 Checked two ways: every constructor against the canonical text of its form, and every frame of
-the manual's own examples (tests/sim/manual_examples.py) whose form has a constructor, rebuilt
+the manual's own examples (tests/support/manual_examples.py) whose form has a constructor, rebuilt
 from its parsed parameters.
 """
 
@@ -16,7 +16,7 @@ import pytest
 from gateway.errors import InvalidInputError, ParameterError
 from gateway.protocol import Command, PositionFormat, commands, parse
 from gateway.protocol.spec import Effect
-from tests.sim.manual_examples import EXAMPLES, NEEDS_CONTROL
+from tests.support.manual_examples import EXAMPLES, NEEDS_CONTROL
 
 SIGNED = PositionFormat.SIGNED
 UNSIGNED = PositionFormat.UNSIGNED

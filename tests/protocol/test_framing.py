@@ -16,6 +16,7 @@ from hypothesis import strategies as st
 from gateway.errors import ParameterError
 from gateway.protocol import commands
 from gateway.protocol.command_reader import CommandFrame, CommandReader, RawText, Stray
+from gateway.protocol.command_text import REGISTRY
 from gateway.protocol.framing import (
     BODY_NUMBERS,
     EEPROM_DONE,
@@ -38,7 +39,6 @@ from gateway.protocol.framing import (
     from_wire,
     to_wire,
 )
-from gateway.protocol.registry import REGISTRY
 
 SUM = Framing(checksum=True)
 ECHO = Framing(echo=True)

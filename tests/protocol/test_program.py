@@ -18,6 +18,7 @@ from gateway.errors import (
     ProgramError,
     UnknownCommandError,
 )
+from gateway.protocol.command_text import REGISTRY, Context, Entry, parse_statement
 from gateway.protocol.models import Command
 from gateway.protocol.params import PositionFormat
 from gateway.protocol.program import (
@@ -28,10 +29,8 @@ from gateway.protocol.program import (
     parse_program,
     upload_chunks,
 )
-from gateway.protocol.registry import REGISTRY, Context, Entry, parse_statement
 from gateway.protocol.text_params import Jump
-
-from .strategies import LABEL_CHARS, LOWER, form_values
+from tests.support.strategies import LABEL_CHARS, LOWER, form_values
 
 # The manual's example programs, verbatim (the project never reads the manual at test time).
 CH11_3 = "/0//JON1+1/END/3//END"  # §11-3 note on /END

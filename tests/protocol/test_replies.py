@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 
 from gateway.errors import ReplyFormatError
 from gateway.protocol import replies
-from gateway.protocol.registry import REGISTRY
+from gateway.protocol.command_text import REGISTRY
 from gateway.protocol.replies import (
     PROGRAM_MAX,
     ReplyValue,

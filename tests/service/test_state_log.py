@@ -25,7 +25,7 @@ from gateway.sim.clock import SimClock
 from gateway.sim.control import Controls
 from gateway.sim.serve import SimPort
 from gateway.transport.pipe import PipeTransport
-from tests.state_waits import until_state
+from tests.support.state_waits import until_state
 
 SCALE = 50.0
 WAIT = 20.0

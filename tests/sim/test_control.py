@@ -12,8 +12,7 @@ import pytest
 from gateway.sim.clock import RecordKind
 from gateway.sim.control import Controls, serve_control
 from gateway.sim.scene import AxisScene, Scene
-
-from .conftest import Wire
+from tests.support.sim_wire import Wire
 
 #: A scene the tests rely on: ORG at 0-499, the axis at 30,000 at power-on, limits far away.
 SCENE = Scene(AxisScene(ccw_limit=-5000, cw_limit=95000, org_start=0, org_end=499, start=30000))

@@ -17,7 +17,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from tests.sim_process import run_script, sim_on_pty
+from tests.support.sim_process import run_script, sim_on_pty
 
 PROGRAM = r'''
 """RC-233 mode 0, two motors (after 233E0.BAS of the RC-233 manual, §13-2)."""

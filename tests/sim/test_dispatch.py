@@ -14,12 +14,12 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from gateway.protocol.command_text import REGISTRY, Entry
 from gateway.protocol.params import Position, PositionFormat
-from gateway.protocol.registry import REGISTRY, Entry
 from gateway.protocol.replies import decode_reply
 from gateway.sim.dispatch import missing_handlers
-from tests.protocol.strategies import form_values
 from tests.sim.direct import Direct
+from tests.support.strategies import form_values
 
 HOST_ENTRIES = [e for e in REGISTRY.entries if not e.spec.program_only]
 #: Forms after which the harness would stop answering for a while or change the line.

@@ -9,8 +9,7 @@ import pytest
 
 from gateway.sim.clock import RecordKind
 from gateway.sim.faults import FaultKind, FaultRule, Faults, garble, uart_noise
-
-from .conftest import Wire
+from tests.support.sim_wire import Wire
 
 CHAR_9600 = 10 / 9600
 

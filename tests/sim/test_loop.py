@@ -18,8 +18,7 @@ from gateway.protocol.framing import Framing, Series, encode_command
 from gateway.sim.clock import LineLog, RecordKind, Scheduler, SimClock
 from gateway.sim.loop import LineBusy, SimLoop
 from gateway.sim.serve import SimPort
-
-from .conftest import Wire, make_loop
+from tests.support.sim_wire import Wire, make_loop
 
 CHAR_9600 = 10 / 9600  # §3-I: "about 1 msec" per character at 9600 bps
 SUM_ON = Framing(checksum=True)

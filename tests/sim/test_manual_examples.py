@@ -27,8 +27,7 @@ import pytest
 
 from gateway.sim.control import Controls
 from gateway.sim.scene import ALL_SENSORS, AxisScene, EzWiring, Scene, SensorName
-from tests.sim.conftest import Wire
-from tests.sim.manual_examples import (
+from tests.support.manual_examples import (
     ACK,
     EXAMPLES,
     NEEDS_CONTROL,
@@ -36,6 +35,7 @@ from tests.sim.manual_examples import (
     Example,
     Step,
 )
+from tests.support.sim_wire import Wire
 
 ALL_TABLES = EXAMPLES + NEEDS_CONTROL
 

@@ -15,8 +15,8 @@ import pytest
 from gateway.sim.clock import RecordKind
 from gateway.sim.controller import Controller
 from gateway.sim.scene import AxisScene, EzWiring
-from tests.sim.conftest import Wire
 from tests.sim.direct import Direct
+from tests.support.sim_wire import Wire
 
 ACK = b">"
 IDLE = b">$10\r"

@@ -7,11 +7,8 @@ search ends at position 0.
 
 from __future__ import annotations
 
-from collections.abc import Callable
-
-from .direct import Direct
-
-ACK = b">"
+from tests.sim.direct import Direct
+from tests.support.program_rig import ACK, CH10_GN, gn, position, run_until, start
 
 # The manual's texts, verbatim (the project never reads the manual at test time).
 CH11_3 = "/0//JON1+1/END/3//END"  # §11-3 note on /END
@@ -20,39 +17,10 @@ CH11_4_EX2 = "/G1/25000/3//END/G2/26000/3//END/G3/27000/3//END"
 CH11_4_EX3 = "//EC//22000//3//?//T10//4//?//END"
 CH11_4_EX3_WITHOUT = "//22000//3//T10//4//END"  # §11-4: the same without /?
 CH12_SC = "/SCG11/END/G1/D00/SR/END"
-CH10_GN = "/7/T100/S/END"
 CH13_2_PIECES = (
     "/E0/OC30/OH8000/OL1000/OS300/OX60/A00130000/CS1,10",
     "/0//B001//1//CD1/JC1+1/J-7/END",
 )
-
-
-def run_until(direct: Direct, done: Callable[[], bool], limit: float, step: float = 0.01) -> float:
-    """Move the clock in small steps until ``done()``; the time it became true."""
-    while direct.now < limit:
-        direct.run(direct.now + step)
-        if done():
-            return direct.now
-    raise AssertionError(f"not done by {limit} s")
-
-
-def gn(direct: Direct) -> int:
-    reply = direct.cmd("GN")
-    assert reply[:3] == b">$1" and reply[-1:] == b"\r", reply
-    return int(reply[3:-1])
-
-
-def position(direct: Direct) -> int:
-    reply = direct.cmd("6")
-    assert reply[:3] == b">$1", reply
-    return int(reply[3:-1])
-
-
-def start(program: str) -> Direct:
-    direct = Direct()
-    assert direct.upload(program) == ACK + ACK
-    assert direct.cmd("G") == ACK
-    return direct
 
 
 def test_ch11_4_example_1_homes_signals_waits_for_input_0_then_moves_to_5000() -> None:

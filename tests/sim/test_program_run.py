@@ -6,8 +6,8 @@ does and returns the messages it sent by then. Positions: the counter reads 0 at
 
 from __future__ import annotations
 
-from .direct import Direct
-from .test_program_examples import gn, position, start
+from tests.sim.direct import Direct
+from tests.support.program_rig import gn, position, start
 
 ACK = b">"
 # Three moves of 1,000 pulses CW, each followed by a NULL wait (steps 1-3, 4-6, 7-9; END 10).

@@ -6,7 +6,7 @@ host reads from the port (§10 I, G, GA; §11-3; §12 /CO, /CC; §10 ER).
 
 from __future__ import annotations
 
-from .conftest import Wire
+from tests.support.sim_wire import Wire
 
 ACK = b">"
 

@@ -27,7 +27,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from tests.sim_process import run_script, sim_on_pty
+from tests.support.sim_process import run_script, sim_on_pty
 
 SCENE = "[default]\ndog_period = 1024\n"
 

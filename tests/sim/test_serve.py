@@ -21,8 +21,7 @@ import serial  # type: ignore[import-untyped]
 from gateway.sim.clock import RecordKind
 from gateway.sim.loop import SimLoop
 from gateway.sim.serve import PtyLine, SimPort, serve_tcp
-
-from .conftest import make_loop
+from tests.support.sim_wire import make_loop
 
 #: The console script of the project, next to the interpreter running the tests.
 GATEWAY = Path(sys.executable).parent / "rc233-gateway"

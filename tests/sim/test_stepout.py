@@ -13,8 +13,8 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from tests.sim.conftest import Wire
 from tests.sim.direct import Direct
+from tests.support.sim_wire import Wire
 
 ACK = b">"
 IDLE = b">$10\r"

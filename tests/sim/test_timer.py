@@ -6,8 +6,8 @@ Times are checked against the manual's numbers (TIME x 100 ms), a little before 
 
 from __future__ import annotations
 
-from .direct import Direct
-from .test_program_examples import CH10_GN, gn, position, run_until, start
+from tests.sim.direct import Direct
+from tests.support.program_rig import CH10_GN, gn, position, run_until, start
 
 ACK = b">"
 TIMER_UP = b"$1T\r"  # §10 T form I: "$B#T" CR at time-up

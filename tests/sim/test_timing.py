@@ -26,7 +26,7 @@ from collections.abc import Callable
 import pytest
 
 from gateway.sim.clock import RecordKind
-from tests.sim.conftest import Wire
+from tests.support.sim_wire import Wire
 
 STATUS = re.compile(rb">\$1([0-9A-F])\r")
 

@@ -27,8 +27,8 @@ from gateway.service.runtime.simulated import simulated_config
 from gateway.service.topology import Topology
 from gateway.transport import SerialLine
 from gateway.transport.usb_latency import SYSFS_ROOT, AdapterReport
-from tests.api.conftest import check_server_message
-from tests.sim_process import sim_on_pty
+from tests.support.sim_process import sim_on_pty
+from tests.support.ws_server import check_server_message
 
 SCALE = 20.0
 CELL = """

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 from typing import Literal
 
+from gateway.protocol.command_text import REGISTRY
 from gateway.protocol.models import Command
 from gateway.protocol.params import PositionFormat
-from gateway.protocol.registry import REGISTRY
 
 __all__ = [
     "SPEED_PARAM",

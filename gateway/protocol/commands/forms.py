@@ -8,9 +8,9 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 
+from gateway.protocol.command_text import REGISTRY
 from gateway.protocol.commands.base import SpeedName
 from gateway.protocol.framing import SWITCH_FIELDS
-from gateway.protocol.registry import REGISTRY
 from gateway.protocol.spec import Form
 
 __all__ = [

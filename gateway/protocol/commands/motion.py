@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from gateway.protocol.command_text import REGISTRY
 from gateway.protocol.commands.base import (
     SPEED_PARAM,
     HomeMethod,
@@ -12,7 +13,6 @@ from gateway.protocol.commands.base import (
 )
 from gateway.protocol.models import Command
 from gateway.protocol.params import PositionFormat
-from gateway.protocol.registry import REGISTRY
 
 __all__ = [
     "home",

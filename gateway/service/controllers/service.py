@@ -27,8 +27,8 @@ from gateway.bus.scheduler import LinkState
 from gateway.bus.trace import TraceRecord
 from gateway.errors import InvalidInputError, NotFoundError
 from gateway.protocol import commands
+from gateway.protocol.command_text import parse
 from gateway.protocol.models import Command
-from gateway.protocol.registry import parse
 from gateway.service.commands import CommandRunner
 from gateway.service.control import ControlView
 from gateway.service.controllers.programs import ProgramService

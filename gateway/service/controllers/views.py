@@ -1,6 +1,6 @@
 """What the controller resources answer: reads answer with the resource (``PositionEntry``,
 ``IoView`` ...); writes answer with the transaction (``CommandResponse`` in ``replies``: the
-typed reply, outcome and frames). Their request bodies are ``gateway.api.bodies``.
+typed reply, outcome and frames). Their request bodies are ``gateway.api.routes.bodies``.
 """
 
 from __future__ import annotations

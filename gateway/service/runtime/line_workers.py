@@ -18,9 +18,9 @@ import asyncio
 
 from gateway.engine.mirror import StateMirror
 from gateway.engine.proxy import SchedulerProxy, WorkerClient
-from gateway.engine.remote import PollerProxy
-from gateway.engine.spec import LoopSpec, WorkerLines
+from gateway.engine.scheduler_reads import PollerProxy
 from gateway.engine.supervisor import WorkerSupervisor
+from gateway.engine.worker_spec import LoopSpec, WorkerLines
 from gateway.service.config import GatewayConfig
 from gateway.service.config_engine import worker_groups
 from gateway.service.runtime.loop_configs import loop_config, poll_config

@@ -31,8 +31,8 @@ from gateway.bus.events import BusEvent, LinkDown, LinkUp, UnsolicitedMessage
 from gateway.bus.poller import Poller, attach
 from gateway.bus.scheduler import LinkState, LoopScheduler
 from gateway.bus.state import StateCache
-from gateway.engine.spec import WorkerLines
 from gateway.engine.surface import LinePoller, LineScheduler
+from gateway.engine.worker_spec import WorkerLines
 from gateway.protocol.commands import position
 from gateway.protocol.reply_parser import UnsolicitedKind
 from gateway.service.config import GatewayConfig

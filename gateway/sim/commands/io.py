@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Any
 from gateway.protocol.framing import TIMER_UP
 from gateway.protocol.reply_values import ClrState, InputsWithInp, OutputsWithClr, PortByte
 from gateway.sim.dispatch import Refused, handles
-from gateway.sim.runtime import Timer
+from gateway.sim.ram_state import Timer
 
 if TYPE_CHECKING:
     from gateway.sim.controller_view import ControllerView

@@ -25,9 +25,9 @@ import math
 from typing import TYPE_CHECKING
 
 from gateway.errors import InvalidInputError
+from gateway.protocol.command_text import parse_statement
 from gateway.protocol.models import Command
 from gateway.protocol.params import PositionFormat
-from gateway.protocol.registry import parse_statement
 from gateway.protocol.reply_values import ProgramState
 from gateway.sim.dispatch import Refused
 from gateway.sim.flags import Error

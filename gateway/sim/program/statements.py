@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
-from gateway.protocol.registry import parse
+from gateway.protocol.command_text import parse
 from gateway.sim.actions import stop_moving, write_eeprom
 from gateway.sim.dispatch import HANDLERS, Refused
 from gateway.sim.program import flow

@@ -10,7 +10,7 @@ from __future__ import annotations
 from enum import Enum
 from typing import TYPE_CHECKING, Protocol
 
-from gateway.sim.runtime import Timer
+from gateway.sim.ram_state import Timer
 
 if TYPE_CHECKING:
     from gateway.sim.controller_view import ControllerView

@@ -1,0 +1,1 @@
+"""What ``GET /metrics`` exposes: HTTP, WebSocket, cell, process and worker series."""

@@ -1,0 +1,1 @@
+"""The pure ASGI layers every request passes before (and after) a route."""

@@ -1,0 +1,1 @@
+"""The HTTP routes, by resource, with their dependencies and request bodies."""

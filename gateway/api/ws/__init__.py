@@ -1,0 +1,1 @@
+"""The WebSocket face: the endpoint, its messages and their AsyncAPI document."""
