@@ -12,15 +12,22 @@ Checksummed frames are the manual's own vectors (§10 SUM: '$16' CR is sent as '
 from __future__ import annotations
 
 import asyncio
+from collections.abc import AsyncIterator, Awaitable, Callable
+
+import pytest
 
 from gateway.bus.events import BusEvent, FramingChanged, LinkUp
+from gateway.bus.poller import PollConfig, Poller, attach
 from gateway.bus.requests import Outcome
+from gateway.bus.scheduler import LoopScheduler
 from gateway.bus.state import StateCache
 from gateway.protocol.command_text import parse
 from gateway.protocol.framing import POWER_ON, Framing
 from tests.support.bus_rig import Bus, MakeBus
+from tests.support.poll_rig import LOOP, Rig, close_rigs, start_rig
 
 EL_SUM = Framing(cr_after_ack=True, checksum=True)
+SUM = Framing(checksum=True)
 
 
 def published(bus: Bus, body: str = "1") -> Framing | None:
@@ -123,3 +130,39 @@ async def test_a_shared_cache_holds_the_framing_the_line_uses(make_bus: MakeBus)
     bus.scheduler.forget("1")
     assert shared.controller(bus.scheduler.name, "1").framing is None
     assert bus.scheduler.framing("1") == POWER_ON
+
+
+@pytest.fixture
+async def rig() -> AsyncIterator[Callable[..., Awaitable[Rig]]]:
+    made: list[Rig] = []
+
+    async def make(bodies: str = "12", scale: float = 2.0, **config: float) -> Rig:
+        def wire(scheduler: LoopScheduler, state: StateCache) -> Poller:
+            return attach(scheduler, state, list(bodies), PollConfig(**config))
+
+        return await start_rig(made, bodies, scale, wire)
+
+    yield make
+    await close_rigs(made)
+
+
+async def test_a_controller_switched_off_and_on_is_unknown_in_both(
+    rig: Callable[..., Awaitable[Rig]],
+) -> None:
+    # The poller's path: silent, then answering again (its RAM, the framing among it, lost,
+    # §16): the scheduler forgets the framing, and the published one is not known either.
+    r = await rig("12", idle_period=0.2, probe_initial=0.4, probe_max=2.0)
+    await r.identified("12")
+    for body in "12":
+        assert (await r.scheduler.submit(body, parse("SUM1"))).outcome is Outcome.DONE
+        assert r.state.controller(LOOP, body).framing == SUM
+    r.controls.power("2", False)
+    await r.until(lambda: r.state.controller(LOOP, "2").online is False)
+    on = r.sim.now()
+    r.controls.power("2", True)
+    # Identified again, without a checksum: the poller found it back and the scheduler forgot.
+    await r.until(lambda: bool(r.frames(b"$2V\r", since=on)))
+    assert r.state.controller(LOOP, "2").framing is None
+    assert r.scheduler.framing("2") == POWER_ON
+    # The other controller kept its own, on the line and in the state.
+    assert r.state.controller(LOOP, "1").framing == r.scheduler.framing("1") == SUM
