@@ -33,13 +33,13 @@ async def hold_for_write(
     """
     erase = command.form is ERASE_EEPROM
     hold = core.config.erase_hold if erase else core.config.eeprom_write_hold
-    loop = asyncio.get_running_loop()
-    deadline = loop.time() + core.timing.real(hold)
+    event_loop = asyncio.get_running_loop()
+    deadline = event_loop.time() + core.timing.real(hold)
     if erase:  # §10 EE///: deaf and silent while erasing; its silence is no dead line
         core.deaf_until[body] = core.clock() + core.timing.real(hold)
     try:
         while core.eeprom_done.get(body, 0) <= mark:
-            left = deadline - loop.time()
+            left = deadline - event_loop.time()
             if left <= 0:
                 break
             waits = [
