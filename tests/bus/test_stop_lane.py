@@ -2,8 +2,9 @@
 
 Every stop queued in that gap goes out before the transaction's next frame, in the order the
 stops were asked for, and each answers its caller before the transaction it overtook ends; a
-stop to the transaction's own controller leaves the rest of what acts `not_done`. What is
-checked is the simulator's line log (the frames it heard, in order) and the callers' results.
+stop to the transaction's own controller leaves the rest of what acts `not_done`. While an
+EEPROM write holds the line, the stops go out meanwhile in their order too. What is checked is
+the simulator's line log (the frames it heard, in order) and the callers' results.
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ from gateway.bus.events import BusEvent, ReplyObserved
 from gateway.bus.requests import Outcome, ReplyKind, TransactionResult
 from gateway.bus.trace import FrameDirection
 from gateway.protocol.registry import parse
+from gateway.sim.clock import RecordKind
 from tests.bus.conftest import Bus, MakeBus
 
 #: Reads of program lines (§10 A: a query, shared by both motors), then a move of motor 1
@@ -61,3 +63,24 @@ async def test_stops_asked_for_in_one_gap_all_go_before_the_next_frame_in_their_
     assert other.outcome is Outcome.DONE and own.outcome is Outcome.DONE
     assert other.ended <= own.started and own.ended <= result.ended
     assert result.started < other.started
+
+
+async def test_stops_asked_for_during_an_eeprom_hold_go_in_their_order(make_bus: MakeBus) -> None:
+    bus = await make_bus("123")
+    stops: list[asyncio.Future[TransactionResult]] = []
+
+    def two_stops() -> None:
+        stops.append(asyncio.ensure_future(bus.scheduler.stop("2", parse("SS"))))
+        stops.append(asyncio.ensure_future(bus.scheduler.stop("3", parse("S"))))
+
+    bus.once_after("EE///", two_stops)
+    erase = await bus.scheduler.submit("1", parse("EE///"))
+    other, third = await asyncio.wait_for(asyncio.gather(*stops), 5.0)
+    assert erase.outcome is Outcome.DONE
+    assert other.outcome is Outcome.DONE and third.outcome is Outcome.DONE
+    sequence = [
+        r.data for r in bus.records() if r.kind in (RecordKind.HEARD, RecordKind.LATER) and r.data
+    ]
+    # §10 EE///: the line is held until '$1*' (10-20 s); the stops go out meanwhile, in the
+    # order they were asked for.
+    assert sequence == [b"$1EE///\r", b"$2SS\r", b"$3S\r", b"$1*\r"], sequence
