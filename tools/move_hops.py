@@ -6,6 +6,11 @@ the gateway's own stack frames at three points: when the operation starts
 (``$13``) is written. The calls in between are the hops of docs/architecture.md; two task
 hand-offs (the operation's send, the loop's task) cut the stack in three.
 
+Then the stop's path: a stop asked for while a transaction of reads is between two frames
+(a scheduler on the simulated loop alone), from the loop's task to the stop's write
+(``$2SS``). It must stay short: it goes through the stop lane, inside the transaction it
+overtakes (DESIGN invariant 8).
+
     .venv/bin/python tools/move_hops.py
 """
 
@@ -20,7 +25,17 @@ from typing import Any
 sys.path.insert(0, str(Path(__file__).parents[1]))
 
 from gateway.bus import queue
+from gateway.bus.config import LoopConfig
+from gateway.bus.events import BusEvent, ReplyObserved
+from gateway.bus.scheduler import LoopScheduler
+from gateway.protocol.command_text import parse
+from gateway.protocol.framing import BAUD_RATES
 from gateway.service.operations.registry import Operations
+from gateway.sim.cli import build_loop
+from gateway.sim.clock import SimClock
+from gateway.sim.faults import Faults
+from gateway.sim.memory import Baud
+from gateway.sim.serve import SimPort
 from gateway.transport import pipe
 from tests.support.sim_app import running_app
 
@@ -66,6 +81,7 @@ async def main() -> None:
     for cls in vars(pipe).values():
         if isinstance(cls, type) and "write" in vars(cls):
             record(cls, "write", "write", lambda data: data.startswith(b"$13"))
+            record(cls, "write", "stop write", lambda data: data.startswith(b"$2SS"))
     async with running_app() as api:
         seen.clear()
         r = await api.client.post(
@@ -86,6 +102,36 @@ async def main() -> None:
             print(f"    {call}")
         total += len(calls)
     print(f"calls from the route handler to the write: {total}")
+    await stop_between_frames()
+    stop = seen["stop write"][0]
+    stop = [*stop[next(i for i, f in enumerate(stop) if f.endswith(":_run")) :], "transport write"]
+    print(f"a stop between two frames, loop task -> transport write: {len(stop)}")
+    for call in stop:
+        print(f"    {call}")
+
+
+async def stop_between_frames() -> None:
+    """A stop to controller 2 asked for once a transaction of reads to 1 has had a reply."""
+    scale, baud = 100.0, 9600
+    sim = build_loop(["1", "2"], clock=SimClock(scale), baud=baud, faults=Faults(seed=1))
+    for unit in sim.units:
+        unit.device.baud = Baud(BAUD_RATES.index(baud))
+    line = pipe.PipeTransport(lambda: SimPort(sim), url="pipe://sim", baud=baud)
+    scheduler = LoopScheduler(line, LoopConfig(time_scale=scale, host_latency=0.02))
+    stops: list[asyncio.Future[Any]] = []
+
+    def stop_now(event: BusEvent) -> None:
+        if isinstance(event, ReplyObserved) and event.command.wire() == "A001D" and not stops:
+            stops.append(asyncio.ensure_future(scheduler.stop("2", parse("SS"))))
+
+    scheduler.events.subscribe(stop_now)
+    await scheduler.start()
+    try:
+        await scheduler.submit("1", [parse(f"A{n:03d}D") for n in range(6)])
+        await asyncio.gather(*stops)
+    finally:
+        await scheduler.close()
+        sim.close()
 
 
 if __name__ == "__main__":

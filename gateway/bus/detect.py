@@ -12,7 +12,7 @@ framing found. Query replies do not depend on EL or ER (§10 EL: "query replies 
 
 from __future__ import annotations
 
-from gateway.bus.exchange import LoopCore
+from gateway.bus.exchange import LineExchange
 from gateway.protocol import commands
 from gateway.protocol.command_replies import ProbeReading, probe_complete, read_probe
 from gateway.protocol.framing import Framing, encode_command
@@ -21,7 +21,9 @@ from gateway.protocol.models import Command
 __all__ = ["detect_framing", "ensure_framing"]
 
 
-async def _probe(core: LoopCore, body: str, command: Command, *, checksum: bool) -> ProbeReading:
+async def _probe(
+    core: LineExchange, body: str, command: Command, *, checksum: bool
+) -> ProbeReading:
     series = core.config.series_of(body)
     frame = encode_command(body, command.wire(), series=series, framing=Framing(checksum=checksum))
     raw = await core.link.probe(
@@ -37,7 +39,7 @@ async def _probe(core: LoopCore, body: str, command: Command, *, checksum: bool)
     return reading
 
 
-async def _read(core: LoopCore, body: str, command: Command, *, checksum: bool) -> ProbeReading:
+async def _read(core: LineExchange, body: str, command: Command, *, checksum: bool) -> ProbeReading:
     """One probe, with the '?' retries of §9-2."""
     reading = ProbeReading(None)
     for _ in range(1 + core.config.nak_retries):
@@ -48,7 +50,7 @@ async def _read(core: LoopCore, body: str, command: Command, *, checksum: bool) 
     return reading
 
 
-async def detect_framing(core: LoopCore, body: str) -> Framing | None:
+async def detect_framing(core: LineExchange, body: str) -> Framing | None:
     """Read EE, EL, ER and SUM of ``body``; the framing, or None when it did not answer."""
     sum_query = commands.checksum()
     sum_reading = await _probe(core, body, sum_query, checksum=False)
@@ -74,7 +76,7 @@ async def detect_framing(core: LoopCore, body: str) -> Framing | None:
     return Framing(echo=echo, cr_after_ack=cr_after_ack, error_mark=error_mark, checksum=summed)
 
 
-async def ensure_framing(core: LoopCore, body: str) -> None:
+async def ensure_framing(core: LineExchange, body: str) -> None:
     """Before a transaction's command: settle a doubted framing, and SUM1 at connect."""
     tracker = core.framing
     why = tracker.suspicion(body)

@@ -15,7 +15,7 @@ import asyncio
 import contextlib
 from typing import Any
 
-from gateway.bus.exchange import LoopCore
+from gateway.bus.exchange import LineExchange
 from gateway.bus.link import LinkLost
 from gateway.bus.requests import Outcome
 from gateway.protocol.commands import ERASE_EEPROM
@@ -25,7 +25,7 @@ __all__ = ["hold_for_write"]
 
 
 async def hold_for_write(
-    core: LoopCore, body: str, command: Command, mark: int, seen: dict[str, Any]
+    core: LineExchange, body: str, command: Command, mark: int, seen: dict[str, Any]
 ) -> Outcome:
     """Wait for a ``$B#*`` of ``body`` after the ``mark``-th; DONE when it came, else UNKNOWN.
 
@@ -33,18 +33,18 @@ async def hold_for_write(
     """
     erase = command.form is ERASE_EEPROM
     hold = core.config.erase_hold if erase else core.config.eeprom_write_hold
-    loop = asyncio.get_running_loop()
-    deadline = loop.time() + core.timing.real(hold)
+    event_loop = asyncio.get_running_loop()
+    deadline = event_loop.time() + core.timing.real(hold)
     if erase:  # §10 EE///: deaf and silent while erasing; its silence is no dead line
-        core.deaf_until[body] = core.clock() + core.timing.real(hold)
+        core.health.deaf(body, core.clock() + core.timing.real(hold))
     try:
         while core.eeprom_done.get(body, 0) <= mark:
-            left = deadline - loop.time()
+            left = deadline - event_loop.time()
             if left <= 0:
                 break
             waits = [
                 asyncio.ensure_future(core.eeprom_event.wait()),
-                asyncio.ensure_future(core.stop_waiting.wait()),
+                asyncio.ensure_future(core.stops.wait()),
                 asyncio.ensure_future(core.link.lost.wait()),
             ]
             try:
@@ -57,10 +57,10 @@ async def hold_for_write(
                         await task
             if core.link.lost_cause is not None:
                 raise LinkLost(core.link.lost_cause)
-            if core.stop_waiting.is_set() and core.serve_stops is not None:
-                await core.serve_stops()
+            if core.stops.waiting():
+                await core.stops.send_queued()
     finally:
-        core.deaf_until.pop(body, None)
+        core.health.deaf(body, None)
     done = core.eeprom_done.get(body, 0) > mark
     seen["eeprom_done"] = done
     return Outcome.DONE if done else Outcome.UNKNOWN

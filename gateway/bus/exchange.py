@@ -1,16 +1,23 @@
-"""One frame exchanged on a loop (``LoopCore.send``), and the books it keeps for the scheduler.
+"""One frame exchanged on a loop (``LineExchange.send``), and the books the line keeps.
 
-``LoopCore.send`` encodes one command model for its controller's framing (a checksum with
+``LineExchange.send`` encodes one command model for its controller's framing (a checksum with
 SUM1, §10 SUM), lets the ``Link`` exchange it, turns the reply into a ``ReplyKind`` and a typed
 value, publishes it (every decoded reply: DESIGN invariant 4), and keeps the books that follow
 from it: motor selection (§10 F), framing (§10 EE/EL/ER/SUM, DL), doubt after a lost reply, and
-link health (consecutive time-outs with no byte received).
+link health (what each frame heard, for ``LineHealth``).
+
+What a doubt makes unknown is forgotten here and only here (``forget``, ``reopened``): the
+loop's lifecycle calls it when the port is reopened, the scheduler's ``forget`` after a
+controller's power cycle. Who calls whom: a ``TransactionRunner`` (and ``detect``, ``upload``,
+``eeprom_hold``) calls ``send``; before each frame ``send`` lets the ``StopLane`` it was handed
+send the stops queued meanwhile; the lane runs them through the loop's ``execute``, never
+through this class. Nothing here names the scheduler or its lifecycle.
 """
 
 from __future__ import annotations
 
 import asyncio
-from collections.abc import Awaitable, Callable
+from collections.abc import Callable
 from dataclasses import dataclass
 
 from gateway.bus.config import LoopConfig
@@ -23,15 +30,23 @@ from gateway.bus.events import (
     SelectionChanged,
 )
 from gateway.bus.framing_track import FramingTracker, hint_from_reply
-from gateway.bus.link import Link, LinkLost
+from gateway.bus.line_health import LineHealth
+from gateway.bus.link import Link
 from gateway.bus.requests import ReplyKind
 from gateway.bus.selection import after_accepted, confirm_command, selection_from_reply
 from gateway.bus.state import StateCache
+from gateway.bus.stop_lane import StopLane
 from gateway.bus.timing import Timing, reply_chars
 from gateway.errors import ReplyFormatError
 from gateway.protocol import commands as cmd
 from gateway.protocol.command_replies import decode_for
-from gateway.protocol.framing import Framing, Series, encode_command, framing_switch
+from gateway.protocol.framing import (
+    BODY_NUMBERS,
+    Framing,
+    Series,
+    encode_command,
+    framing_switch,
+)
 from gateway.protocol.models import Command
 from gateway.protocol.replies import (
     ReplyValue,
@@ -47,14 +62,14 @@ from gateway.protocol.reply_parser import (
 from gateway.protocol.reply_values import ProgramState
 from gateway.protocol.spec import Effect, Scope
 
-__all__ = ["DOUBT", "LoopCore", "Sent"]
+__all__ = ["DOUBT", "LineExchange", "Sent"]
 
-#: What the scheduler reads to learn whether a controller answers (``LoopCore.probe``).
+#: What the scheduler reads to learn whether a controller answers (``LineExchange.probe``).
 _PROBE = confirm_command()
 
 #: Kinds after which nobody knows what the controller did or how it is set up.
 DOUBT = frozenset({ReplyKind.TIMEOUT, ReplyKind.GARBLED, ReplyKind.CHECKSUM})
-#: Frames kept encoded (``LoopCore._send``): the polls of a loop, with room for callers' reads.
+#: Frames kept encoded (``LineExchange._send``): the polls of a loop, with room for callers' reads.
 _FRAMES_KEPT = 512
 #: Replies every subscriber hears at once (``EventBus.defer`` is for the others).
 _AT_ONCE = frozenset({Effect.MOTION, Effect.STOP})
@@ -70,8 +85,10 @@ class Sent:
     note: str = ""
 
 
-class LoopCore:
-    """Everything one loop's transactions share."""
+class LineExchange:
+    """One loop's line as its transactions share it: the frame exchange, and what the line
+    knows: each controller's selection and framing, the ``$B#*`` heard, its health; and the
+    stop lane a stop takes between two frames."""
 
     def __init__(
         self,
@@ -82,7 +99,8 @@ class LoopCore:
         counters: Counters,
         bus: EventBus[BusEvent],
         clock: Callable[[], float],
-        serve_stops: Callable[[], Awaitable[None]] | None = None,
+        stops: StopLane,
+        health: LineHealth,
     ) -> None:
         self.name = name
         self.config = config
@@ -92,7 +110,7 @@ class LoopCore:
         self.bus = bus
         self.clock = clock
         #: the one home of what the controllers do (the selection among it): fed by the
-        #: scheduler's events before any other subscriber (``LoopLifecycle.use_state``)
+        #: scheduler's events before any other subscriber (``LoopScheduler.use_state``)
         self.state = StateCache()
         #: the scheduler's rules on the framing; the framing itself is the state cache's
         self.framing = FramingTracker(
@@ -103,26 +121,34 @@ class LoopCore:
         #: ``$B#*`` seen per controller (a counter, so a waiter cannot miss an early one)
         self.eeprom_done: dict[str, int] = {}
         self.eeprom_event = asyncio.Event()
-        #: controllers that are deaf until this host time (EE/// erases in silence, §10 EE///)
-        self.deaf_until: dict[str, float] = {}
-        #: set by the scheduler when a stop waits; ``serve_stops`` runs the queued stops
-        #: (before any frame of a transaction in flight, and while an EEPROM write holds)
-        self.stop_waiting = asyncio.Event()
-        self.serve_stops = serve_stops
-        self._serving_stops = False
-        #: stops sent per controller from inside another transaction: one that a stop to its
-        #: controller overtook sends nothing more that acts (``TransactionRunner``)
-        self.stops_sent: dict[str, int] = {}
+        #: who answers, who is silent or deaf: one controller silent, or the line gone
+        self.health = health
+        #: the stops queued meanwhile: sent before any frame of a transaction in flight, and
+        #: while an EEPROM write holds the line (the loop's lifecycle runs them)
+        self.stops = stops
         #: controllers whose framing read-back failed since the link came up (not retried)
         self.detect_failed: set[str] = set()
-        #: controllers that have answered on this loop (kept across reconnects: the line is
-        #: only up again when one of them answers, ``LoopLifecycle``)
-        self.answering: set[str] = set()
-        #: controllers that timed out in silence since the last byte heard: when it covers
-        #: every answering controller, the line is gone, not one controller (``_check_health``)
-        self.silent: set[str] = set()
         #: frames encoded before, by body, text, series and framing (a pure function of them)
         self._frames: dict[tuple[str, str, Series, Framing], bytes] = {}
+
+    # ------------------------------------------------------------------ doubt
+
+    def forget(self, body: str | None = None) -> None:
+        """Forget what a doubt about ``body``'s set-up makes unknown (None: every controller's):
+        the motor selected, the framing, a failed framing read-back (power cycle, reopen)."""
+        for each in BODY_NUMBERS if body is None else (body,):
+            self.set_selection(each, None)
+        self.framing.forget(body)
+        if body is None:
+            self.detect_failed.clear()
+        else:
+            self.detect_failed.discard(body)
+
+    def reopened(self) -> None:
+        """The port was opened again: nothing of any controller's set-up is known, and no
+        controller has been silent or deaf on this line yet."""
+        self.forget()
+        self.health.reopened()
 
     # ------------------------------------------------------------------ bookkeeping
 
@@ -196,38 +222,11 @@ class LoopCore:
         A stop queued meanwhile goes first (DESIGN invariant 8): it is the next frame on the
         wire even in the middle of a transaction.
         """
-        if self.stop_waiting.is_set():
-            await self.stops_first()
+        if self.stops.waiting():
+            await self.stops.send_queued()
         sent = await self._send(body, command, motor)
-        self.check_health(body)
+        self.health.check(body)
         return sent
-
-    async def stops_first(self) -> None:
-        """Send the queued stops now (not from inside a stop being sent)."""
-        if self._serving_stops or self.serve_stops is None:
-            return
-        self._serving_stops = True
-        try:
-            await self.serve_stops()
-        finally:
-            self._serving_stops = False
-
-    def needs_probe(self) -> str | None:
-        """After a time-out in silence: a controller to read now (None: no need).
-
-        First those that answer and have not been silent since: if one answers, one
-        controller is silent, not the line. Then round the silent ones until
-        ``timeouts_to_down``, so a cut line goes down within a few time-outs rather than
-        after the poller's backoff for offline controllers.
-        """
-        silent = self.link.silent_timeouts
-        if not silent or not self.answering:
-            return None
-        others = sorted(self.answering - self.silent)
-        if others:
-            return others[0]
-        every = sorted(self.answering)
-        return every[silent % len(every)]
 
     async def probe(self, body: str) -> bool:
         """Read ``97`` of ``body`` (clears nothing, allowed while a motor moves, §10 9): True
@@ -279,10 +278,9 @@ class LoopCore:
             # another motor with no frame of the gateway's (§10 G, F in programs).
             self.doubt(body)
         if exchange.heard:
-            self.silent.clear()
-            self.answering.add(body)
+            self.health.heard(body)
         elif sent.kind is ReplyKind.TIMEOUT:
-            self.silent.add(body)
+            self.health.timed_out(body)
         return sent
 
     def _classify(
@@ -352,23 +350,12 @@ class LoopCore:
             if changed is not False:
                 self.set_selection(body, changed if isinstance(changed, int) else None)
 
-    def check_health(self, body: str) -> None:
-        """Too many time-outs in a row with no byte at all: the line is gone (half-open)."""
-        if self.deaf_until.get(body, 0.0) > self.clock():
-            self.link.silent_timeouts = 0  # a controller erasing its EEPROM is silent on purpose
-            return
-        limit = self.config.timeouts_to_down
-        if self.link.silent_timeouts >= limit and self.answering <= self.silent:
-            cause = f"every controller silent: {limit} time-outs in a row with no byte received"
-            self.link.lose(cause)
-            raise LinkLost(cause)
-
     # ------------------------------------------------------------------ EEPROM
 
     def note_eeprom_done(self, body: str) -> None:
         """A ``$B#*`` from ``body`` (§10 AW, DW, IW, EE///)."""
         self.eeprom_done[body] = self.eeprom_done.get(body, 0) + 1
-        self.deaf_until.pop(body, None)
+        self.health.deaf(body, None)
         self.eeprom_event.set()
         self.eeprom_event = asyncio.Event()
 

@@ -1,47 +1,40 @@
-"""The running side of a loop's scheduler: connect, serve the queue, go down, reconnect.
+"""The loop's task: connect, wait for an answer, serve the queue, go down, reconnect.
 
-One task runs the queue: the highest priority first, FIFO within a priority, one transaction
-at a time; a stop before the next frame, inside a transaction too (DESIGN invariant 8,
-``LoopCore.send``). When the transport raises ``TransportClosed``, or ``timeouts_to_down``
-time-outs in a row bring no byte, the loop goes DOWN: queued requests fail at once with
-``LoopDown`` (with a retry-after hint) and the port is reopened with backoff (doubling, with
-jitter). Once back, the selection and framing caches are dropped and ``LinkUp`` is published:
-the state layer re-reads the controllers from the devices. ``scheduler`` adds the callers' side.
+``LoopLifecycle`` is one part of a ``LoopScheduler``, with state of its own (the link's
+``state`` and ``cause``, the backoff, the task). Its task runs the queue: the highest priority
+first, FIFO within a priority, one transaction at a time (``execute``); a stop before the next
+frame, inside a transaction too (DESIGN invariant 8): the ``StopLane`` it is handed runs the
+stops through ``execute`` when the ``LineExchange`` asks it to. When the transport raises
+``TransportClosed``, or ``timeouts_to_down`` time-outs in a row bring no byte, the loop goes
+DOWN: queued requests fail at once with ``LoopDown`` (with a retry-after hint) and the port is
+reopened with backoff (doubling, with jitter). Once reopened, the exchange forgets what the
+controllers were set to (``LineExchange.reopened``); once one answers, ``LinkUp`` is
+published: the state layer re-reads the controllers from the devices.
+
+Who calls whom: ``LoopScheduler`` -> ``LoopLifecycle`` (start, close, wake, down_error) ->
+``TransactionRunner`` -> ``LineExchange`` -> ``Link``; the exchange -> ``StopLane`` -> the
+``execute`` it was handed. Nothing below calls the lifecycle by name.
 """
 
 from __future__ import annotations
 
 import asyncio
 import contextlib
-import dataclasses
 import logging
-import time
 from collections.abc import Callable
 from enum import StrEnum
 
 from gateway.bus.config import LoopConfig
 from gateway.bus.counters import Counters, CountersSnapshot
-from gateway.bus.events import (
-    BusEvent,
-    EventBus,
-    LinkDown,
-    LinkUp,
-    TransactionDone,
-    UnsolicitedMessage,
-)
-from gateway.bus.exchange import LoopCore
+from gateway.bus.events import BusEvent, EventBus, LinkDown, LinkUp, TransactionDone
+from gateway.bus.exchange import LineExchange
+from gateway.bus.line_health import LineHealth
 from gateway.bus.link import Link, LinkLost
-from gateway.bus.messages import framing_artefact, stray_hint
-from gateway.bus.programs_seen import ProgramsSeen
 from gateway.bus.queue import Request, RequestQueue
 from gateway.bus.requests import LoopDown, Priority, TransactionResult
 from gateway.bus.selection import needs_selection
-from gateway.bus.state import StateCache
-from gateway.bus.timing import Timing
-from gateway.bus.trace import LineTrace
+from gateway.bus.stop_lane import StopLane
 from gateway.bus.transaction import TransactionRunner
-from gateway.protocol.framing import BODY_NUMBERS
-from gateway.protocol.reply_parser import ReplyEvent, Unsolicited, UnsolicitedKind
 from gateway.transport.base import Transport, TransportClosed
 from gateway.transport.factory import Backoff
 
@@ -60,54 +53,36 @@ class LinkState(StrEnum):
 
 
 class LoopLifecycle:
-    """The queue, the link and the task that serves one from the other."""
+    """The task that serves one loop's queue over its link, and the link's state."""
 
     def __init__(
         self,
+        config: LoopConfig,
         transport: Transport,
-        config: LoopConfig | None = None,
         *,
-        clock: Callable[[], float] = time.monotonic,
+        link: Link,
+        exchange: LineExchange,
+        health: LineHealth,
+        queue: RequestQueue,
+        stops: StopLane,
+        events: EventBus[BusEvent],
+        counters: Counters,
+        snapshot: Callable[[], CountersSnapshot],
+        clock: Callable[[], float],
     ) -> None:
-        self.config = config = config or LoopConfig()
+        self.config = config
         self.name = config.name
-        self.transport = transport
-        self.clock = clock
-        self.counters = Counters()
-        self.events: EventBus[BusEvent] = EventBus()
-        self.trace = LineTrace(config.trace_size)
-        self.timing = Timing(
-            baud=config.baud or transport.baud,
-            scale=config.time_scale,
-            turnaround=config.turnaround,
-            host_latency=config.host_latency,
-            quiet_chars=config.quiet_chars,
-        )
-        self._wake = asyncio.Event()
-        self._programs = ProgramsSeen()
-        self.events.subscribe(self._programs.handle, urgent=True)  # the parser's `printing`
-        self._link = Link(
-            transport,
-            self.timing,
-            self.counters,
-            self.trace,
-            on_unsolicited=self._unsolicited,
-            on_stray=self._stray,
-            on_lost=self._wake.set,
-            clock=clock,
-            programs=self._programs,
-        )
-        self._core = LoopCore(
-            self.name,
-            config,
-            self.timing,
-            self._link,
-            self.counters,
-            self.events,
-            clock,
-            serve_stops=self._serve_stops,
-        )
-        self._queue = RequestQueue(self.name, clock, self._queued, aging=config.poll_aging_real)
+        self._transport = transport
+        self._link = link
+        self._exchange = exchange
+        self._health = health
+        self._queue = queue
+        self._events = events
+        self._counters = counters
+        self._snapshot = snapshot
+        self._clock = clock
+        stops.run_by(self.execute)  # the lane runs its stops the way this task runs a request
+        self._stops = stops
         self.state = LinkState.CONNECTING
         self.cause = "not connected yet"
         first = max(1e-6, min(config.reconnect_initial_real, config.reconnect_max_real))
@@ -116,55 +91,46 @@ class LoopLifecycle:
         self._retry_at: float | None = None
         self._task: asyncio.Task[None] | None = None
         self._first_attempt = asyncio.Event()
+        self._wake = asyncio.Event()
         self._idle = asyncio.Event()  # set while no transaction is in flight (shutdown waits)
         self._idle.set()
-        #: the state cache the scheduler feeds first and reads: its own until ``use_state``
-        self.state_cache: StateCache = self._core.state
-        self._unfeed = self._feed(self.state_cache)
 
-    def snapshot(self) -> CountersSnapshot:
-        """The loop's counters now."""
-        self.counters.coalesced = self._queue.coalesced
-        self.counters.expired = self._queue.expired
-        return self.counters.snapshot()
+    # ------------------------------------------------------------------ what the scheduler calls
 
-    def _queued(self) -> None:
-        if self._queue.head_priority() is Priority.STOP:  # before any frame of a transaction
-            self._core.stop_waiting.set()
+    async def start(self) -> None:
+        """Open the port (one attempt) and start serving; reconnects in the background."""
+        if self._task is None:
+            self._task = asyncio.get_running_loop().create_task(self._run(), name=self.name)
+        await self._first_attempt.wait()
+
+    async def close(self, drain: float) -> None:
+        """Fail the queued and later requests, let the transaction in flight end within
+        ``drain`` real seconds, end the task and close the port."""
+        self.state = LinkState.CLOSED
+        self.cause = "the scheduler was closed"
+        self._fail_queued()
+        if drain > 0:
+            with contextlib.suppress(TimeoutError):
+                await asyncio.wait_for(self._idle.wait(), drain)
+        if self._task is not None:
+            self._task.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await self._task
+            self._task = None
+        await self._link.stop()
+        with contextlib.suppress(Exception):
+            await self._transport.close()
+
+    def wake(self) -> None:
+        """A request was queued, or the link was lost: look at the queue again."""
         self._wake.set()
 
-    def down_error(self) -> LoopDown:
+    def down_error(self, *, in_flight: bool = False) -> LoopDown:
         """The error of a request refused because the loop is not up (with its retry hint)."""
-        return self._down_error()
-
-    def reopen_at(self, baud: int) -> None:
-        """Reopen the port at ``baud`` (the controllers were moved there with ``ES``, §10 ES):
-        the timing and the transport take the new rate, then the link is lost on purpose and
-        the run loop reconnects as after any loss (one LinkDown, queued requests fail with
-        LoopDown; the controllers that answered before are probed at the new rate)."""
-        timing = dataclasses.replace(self.timing, baud=baud)
-        self.timing = self._link.timing = self._core.timing = timing
-        self.transport.baud = baud
-        self._link.lose(f"reopening the port at {baud} bps")
-
-    def use_state(self, state: StateCache, *, first: bool = True) -> None:
-        """Feed ``state`` with every event and read from it what the controllers do (the one
-        home of that knowledge: the selection among it). Until then the scheduler keeps a
-        cache of its own; call this before ``start``.
-
-        ``first``: before every other subscriber, whenever they subscribe. No answer may
-        depend on it (the tests feed the cache last to show that none does).
-        """
-        self._unfeed()
-        self.state_cache = self._core.state = state
-        self._unfeed = self._feed(state, first=first)
-
-    def _feed(self, state: StateCache, *, first: bool = True) -> Callable[[], None]:
-        # Urgent: the next frame depends on it (selection, motion: ``_must_wait``).
-        def feed(e: BusEvent) -> None:  # the depth (a count) only where it is published
-            state.handle(e, queue_depth=len(self._queue) if type(e) is TransactionDone else None)
-
-        return self.events.subscribe(feed, first=first, urgent=True)
+        retry = None
+        if self._retry_at is not None and self.state is not LinkState.CLOSED:
+            retry = max(0.0, self._retry_at - self._clock())
+        return LoopDown(self.name, self.cause, retry_after=retry, in_flight=in_flight)
 
     def _must_wait(self, request: Request) -> bool:
         """A per-motor request whose F would be refused now: a motor of its controller moves
@@ -172,25 +138,15 @@ class LoopLifecycle:
         deadline bounds that); the status polls tell when the motion has ended."""
         if request.motor is None:
             return False
-        if not self.state_cache.controller(self.name, request.body).moving:
+        if not self._exchange.state.controller(self.name, request.body).moving:
             return False
-        if self._core.selected(request.body) == request.motor:
+        if self._exchange.selected(request.body) == request.motor:
             return False
         return any(needs_selection(c) for c in request.commands)
 
-    def _down_error(self, *, in_flight: bool = False) -> LoopDown:
-        retry = None
-        if self._retry_at is not None and self.state is not LinkState.CLOSED:
-            retry = max(0.0, self._retry_at - self.clock())
-        return LoopDown(self.name, self.cause, retry_after=retry, in_flight=in_flight)
-
     def _fail_queued(self) -> None:
-        self._queue.fail_all(self._down_error)
-        self._core.stop_waiting.clear()
-
-    def _forget_all(self) -> None:
-        for body in BODY_NUMBERS:
-            self._core.set_selection(body, None)
+        self._queue.fail_all(self.down_error)
+        self._stops.clear()
 
     # ------------------------------------------------------------------ the run loop
 
@@ -218,25 +174,21 @@ class LoopLifecycle:
 
     async def _connect(self) -> bool:
         try:
-            await self.transport.open()
+            await self._transport.open()
         except Exception as exc:
             # TransportClosed and OSError as documented, and whatever else a serial library
             # raises (ValueError for a rate it refuses...): a failed open, never the end of
             # this task, or callers (stops have no deadline) would wait forever.
             if not isinstance(exc, TransportClosed | OSError):
-                log.error("loop %s: unexpected error opening %s", self.name, self.transport.url)
+                log.error("loop %s: unexpected error opening %s", self.name, self._transport.url)
             if self.state is not LinkState.DOWN:
-                await self._go_down(f"cannot open {self.transport.url}: {exc}")
+                await self._go_down(f"cannot open {self._transport.url}: {exc}")
             else:
-                self.cause = f"cannot open {self.transport.url}: {exc}"
-                self._retry_at = self.clock() + self._delay
+                self.cause = f"cannot open {self._transport.url}: {exc}"
+                self._retry_at = self._clock() + self._delay
             return False
         self._link.start()
-        self._forget_all()
-        self._core.framing.forget()
-        self._core.detect_failed.clear()
-        self._core.deaf_until.clear()
-        self._core.silent.clear()
+        self._exchange.reopened()  # the one place that decides a reopen's doubt
         return True
 
     async def _answered(self) -> bool:
@@ -248,42 +200,42 @@ class LoopLifecycle:
         line coming back, with one ``LinkUp`` per outage. The first connection has nobody to
         ask: the poller finds the controllers. ``LinkLost`` if the port closes meanwhile.
         """
-        if self.state is not LinkState.DOWN or not self._core.answering:
+        if self.state is not LinkState.DOWN or not self._health.answering():
             return True
-        pause = self.timing.real(self.config.probe_period)
+        pause = self._exchange.timing.real(self.config.probe_period)
         while self.state is LinkState.DOWN:
-            for body in sorted(self._core.answering):
-                if await self._core.probe(body):
+            for body in self._health.answering():
+                if await self._exchange.probe(body):
                     return True
-            self._retry_at = self.clock() + pause
+            self._retry_at = self._clock() + pause
             await asyncio.sleep(pause)
         return False
 
     def _go_up(self) -> None:
-        self._core.silent.clear()
+        self._health.heard_again()
         self.state = LinkState.UP
         self.cause = ""
         self._retry_at = None
-        self.events.publish(LinkUp(loop=self.name, time=self.clock()))
+        self._events.publish(LinkUp(loop=self.name, time=self._clock()))
 
     async def _go_down(self, cause: str) -> None:
         if self.state is LinkState.DOWN:  # lost again while probing: one LinkDown per outage
             self.cause = cause
             await self._link.stop()
             with contextlib.suppress(Exception):
-                await self.transport.close()
+                await self._transport.close()
             return
         self.state = LinkState.DOWN
         self.cause = cause
-        self.counters.link_downs += 1
-        self._retry_at = self.clock() + self._delay
+        self._counters.link_downs += 1
+        self._retry_at = self._clock() + self._delay
         log.warning("loop %s down: %s", self.name, cause)
         self._fail_queued()
         await self._link.stop()
         with contextlib.suppress(Exception):
-            await self.transport.close()
-        self.events.publish(
-            LinkDown(loop=self.name, time=self.clock(), cause=cause, retry_after=self._delay)
+            await self._transport.close()
+        self._events.publish(
+            LinkDown(loop=self.name, time=self._clock(), cause=cause, retry_after=self._delay)
         )
 
     async def _serve(self) -> None:
@@ -291,38 +243,31 @@ class LoopLifecycle:
         while True:
             if self._link.lost_cause is not None:
                 raise LinkLost(self._link.lost_cause)
-            probe = self._core.needs_probe()
+            probe = self._health.needs_probe()
             if probe is not None and self._queue.head_priority() is not Priority.STOP:
                 # Silence: is it one controller or the line? Ask another one now, so that a
                 # cut line is down within a few time-outs, not after the poller's backoff.
-                await self._core.probe(probe)
-                self._core.check_health(probe)
+                await self._exchange.probe(probe)
+                self._health.check(probe)
                 continue
             request = self._queue.pop(blocked=self._must_wait)
             if request is None:
-                self._core.stop_waiting.clear()
+                self._stops.clear()
                 self._wake.clear()
                 await self._wake.wait()
                 continue
-            await self._execute(request)
+            await self.execute(request)
             if self._link.heard_any and self._backoff.attempts > 1:
                 self._backoff.reset()
                 self._delay = self._backoff.next_delay()
 
-    async def _serve_stops(self) -> None:
-        """Run the queued stops now (from inside a transaction that holds the line)."""
-        stops = self._core.stops_sent
-        while (request := self._queue.pop(only=Priority.STOP)) is not None:
-            stops[request.body] = stops.get(request.body, 0) + 1
-            await self._execute(request)
-        self._core.stop_waiting.clear()
-
-    async def _execute(self, request: Request) -> None:
-        if self._queue.head_priority() is not Priority.STOP:
-            self._core.stop_waiting.clear()
-        started = self.clock()
+    async def execute(self, request: Request) -> None:
+        """Run ``request`` as one transaction, publish it done and answer its callers (the
+        serving loop's, and the stop lane's between two frames of another)."""
+        self._stops.settle()
+        started = self._clock()
         runner = TransactionRunner(
-            self._core, request.body, request.commands, request.motor, request.program
+            self._exchange, request.body, request.commands, request.motor, request.program
         )
         outermost = self._idle.is_set()  # a stop runs inside the transaction it overtook
         self._idle.clear()
@@ -330,10 +275,10 @@ class LoopLifecycle:
             results, exchanges = await runner.run()
         except LinkLost as exc:
             self.cause = exc.cause
-            self._fail(request, self._down_error(in_flight=True))
+            self._fail(request, self.down_error(in_flight=True))
             raise
         except asyncio.CancelledError:  # closed during the transaction: nobody waits forever
-            self._fail(request, self._down_error(in_flight=True))
+            self._fail(request, self.down_error(in_flight=True))
             raise
         except Exception as exc:  # a defect: tell the callers, keep the loop alive
             log.exception("loop %s: transaction failed", self.name)
@@ -343,12 +288,12 @@ class LoopLifecycle:
             if outermost:
                 self._idle.set()
         result = TransactionResult(
-            self.name, request.body, tuple(results), started, self.clock(), exchanges
+            self.name, request.body, tuple(results), started, self._clock(), exchanges
         )
-        self.counters.transactions += 1
+        self._counters.transactions += 1
         # The subscribers hear of it once the next frame is out (the waiters after them).
-        self.events.defer()
-        self.events.publish(
+        self._events.defer()
+        self._events.publish(
             TransactionDone(
                 loop=self.name,
                 time=result.ended,
@@ -359,7 +304,7 @@ class LoopLifecycle:
                 priority=request.priority,
                 duration=result.ended - started,
                 exchanges=exchanges,
-                counters=self.snapshot(),
+                counters=self._snapshot(),
             )
         )
         for waiter in request.waiters:
@@ -370,31 +315,3 @@ class LoopLifecycle:
     def _fail(request: Request, error: Exception) -> None:
         for waiter in (w for w in request.waiters if not w.future.done()):
             waiter.future.set_exception(error)
-
-    # ------------------------------------------------------------------ messages
-
-    def _unsolicited(self, event: Unsolicited) -> None:
-        if event.kind is UnsolicitedKind.PROGRAM_OUTPUT and framing_artefact(
-            event, self._core.framing, self._link, self.counters
-        ):
-            return
-        body = event.body
-        if body is None and event.kind is UnsolicitedKind.PROGRAM_OUTPUT:
-            # '>text' and '@' name no controller: the one whose program may run sent it.
-            body = self._programs.sole()
-        self.counters.unsolicited += 1
-        if event.kind is UnsolicitedKind.EEPROM_DONE and body is not None:
-            self._core.note_eeprom_done(body)
-        self.events.publish(
-            UnsolicitedMessage(
-                loop=self.name,
-                time=self.clock(),
-                body=body,
-                kind=event.kind,
-                data=event.data,
-                raw=event.raw,
-            )
-        )
-
-    def _stray(self, event: ReplyEvent, body: str | None) -> None:
-        stray_hint(event, body, self._core.framing)

@@ -83,8 +83,8 @@ class Link(Receiver):
         self.parser.expect(
             body, frame if expect_sent is None else expect_sent, has_data, framing=framing
         )
-        loop = asyncio.get_running_loop()
-        pending = Pending(body, loop.create_future())
+        event_loop = asyncio.get_running_loop()
+        pending = Pending(body, event_loop.create_future())
         self._pending = pending
         started = self._clock()
         try:
@@ -126,15 +126,15 @@ class Link(Receiver):
         pending.late_phase = True
         base = max(self.timing.late_quiet(reply_len), self.timing.resync_quiet(echoed))
         quiet = self.lateness.quiet(base)
-        loop = asyncio.get_running_loop()
-        began = loop.time()
+        event_loop = asyncio.get_running_loop()
+        began = event_loop.time()
         self.lateness.timed_out(began)
         end = began + limit + _RESYNC_PERIODS * quiet
         settled = False
         first_chunk = self._rx_chunks
-        while not pending.future.done() and loop.time() < end:
+        while not pending.future.done() and event_loop.time() < end:
             mark = self._rx_chunks
-            await pending.wait(min(quiet, max(0.0, end - loop.time())))
+            await pending.wait(min(quiet, max(0.0, end - event_loop.time())))
             if self._rx_chunks == mark:  # a whole quiet period without a byte
                 settled = True
                 break
@@ -146,8 +146,8 @@ class Link(Receiver):
             if settled and self._rx_chunks == first_chunk:
                 self.lateness.silent()
         else:
-            self.lateness.arrived(loop.time())  # its own reply, this late
-        self.resync_time += loop.time() - began
+            self.lateness.arrived(event_loop.time())  # its own reply, this late
+        self.resync_time += event_loop.time() - began
         self.resyncs += 1
         return pending.future.done() and pending.future.exception() is None
 
@@ -156,16 +156,16 @@ class Link(Receiver):
         the loop; what arrives meanwhile is counted late and dropped (DESIGN invariant 13).
         ``echoed``: the length of a frame an EE1 controller echoes before its reply."""
         quiet = self.lateness.quiet(self.timing.resync_quiet(echoed))
-        loop = asyncio.get_running_loop()
-        began = loop.time()
+        event_loop = asyncio.get_running_loop()
+        began = event_loop.time()
         end = began + _RESYNC_PERIODS * quiet
         first_chunk = self._rx_chunks
         self.resyncing = True
         self._trace.add(self._clock(), FrameDirection.NOTE, body, b"", "resync")
         try:
-            while loop.time() < end and self.lost_cause is None:
+            while event_loop.time() < end and self.lost_cause is None:
                 mark = self._rx_chunks
-                await self._quiet_for(min(quiet, end - loop.time()))
+                await self._quiet_for(min(quiet, end - event_loop.time()))
                 if self._rx_chunks == mark:
                     self.out_of_step = False
                     if mark == first_chunk:
@@ -176,7 +176,7 @@ class Link(Receiver):
             self._idle.set()
         finally:
             self.resyncing = False
-            self.resync_time += loop.time() - began
+            self.resync_time += event_loop.time() - began
             self.resyncs += 1
         if self.lost_cause is not None:
             raise LinkLost(self.lost_cause)
@@ -240,15 +240,15 @@ class Link(Receiver):
             await self.resync(body)
         self._discard_stale(body)
         self.parser.cancel()
-        loop = asyncio.get_running_loop()
+        event_loop = asyncio.get_running_loop()
         self._probe = buffer = bytearray()
         try:
             self._write(body, frame, self._clock())
-            deadline = loop.time() + self.timing.real(
+            deadline = event_loop.time() + self.timing.real(
                 self.timing.reply_timeout(len(frame), reply_len)
             )
             while not complete(bytes(buffer)) and self.lost_cause is None:
-                left = deadline - loop.time()
+                left = deadline - event_loop.time()
                 if left <= 0:
                     break
                 self._probe_changed.clear()

@@ -115,8 +115,8 @@ class RequestQueue:
         deadline: float | None,
     ) -> Waiter:
         """Queue a transaction (or join an identical queued one); the caller's ``Waiter``."""
-        loop = asyncio.get_running_loop()
-        waiter = Waiter(loop.create_future(), self._clock())
+        event_loop = asyncio.get_running_loop()
+        waiter = Waiter(event_loop.create_future(), self._clock())
         key = coalesce_key(body, commands, motor, program)
         shared = self._shared.get(key) if key is not None else None
         if shared is not None and shared.live:
@@ -132,7 +132,7 @@ class RequestQueue:
                 self._shared[key] = request
             self._push(request)
         if deadline is not None and request.priority is not Priority.STOP:
-            waiter.timer = loop.call_later(deadline, self._expire, request, waiter, deadline)
+            waiter.timer = event_loop.call_later(deadline, self._expire, request, waiter, deadline)
         self._on_put()
         return waiter
 

@@ -93,9 +93,9 @@ class Pending:
         """Until the reply (or the loss of the line) or ``timeout`` real seconds."""
         if self.future.done():
             return
-        loop = asyncio.get_running_loop()
-        self.wake = wake = loop.create_future()
-        timer = loop.call_later(timeout, self.rouse)
+        event_loop = asyncio.get_running_loop()
+        self.wake = wake = event_loop.create_future()
+        timer = event_loop.call_later(timeout, self.rouse)
         try:
             await wake
         finally:
@@ -176,8 +176,8 @@ class Receiver(Sink):
         except TransportClosed:  # gone already: a reader task meets it and says why
             self._delivered = False
         if not self._delivered:
-            loop = asyncio.get_running_loop()
-            self._reader = loop.create_task(self._read_loop(), name="bus-reader")
+            event_loop = asyncio.get_running_loop()
+            self._reader = event_loop.create_task(self._read_loop(), name="bus-reader")
 
     async def stop(self) -> None:
         """Stop reading; a pending exchange fails with ``LinkLost``."""
@@ -274,8 +274,8 @@ class Receiver(Sink):
     def _arm_quiet(self) -> None:
         if self._quiet_handle is not None:
             self._quiet_handle.cancel()
-        loop = asyncio.get_running_loop()
-        self._quiet_handle = loop.call_later(self.timing.quiet(), self._line_quiet)
+        event_loop = asyncio.get_running_loop()
+        self._quiet_handle = event_loop.call_later(self.timing.quiet(), self._line_quiet)
 
     def _line_quiet(self) -> None:
         self._quiet_handle = None

@@ -32,6 +32,7 @@ __all__ = [
     "TransactionResult",
 ]
 
+
 class Priority(IntEnum):
     """Queue order: lower goes first; FIFO within one priority."""
 

@@ -8,7 +8,7 @@ reply, '?', reconnect), so that F is sent again rather than trusted.
 
 The selection has one home, the state cache (``ControllerState.selected_motor``, trusted by
 the scheduler only while ``selection_confirmed``): the scheduler publishes what it learns as
-``SelectionChanged`` and reads it back from there (``LoopCore.selected``). It learns from:
+``SelectionChanged`` and reads it back from there (``LineExchange.selected``). It learns from:
 * ``F{m}`` answered '>' and, unless ER1 would have said '>@', confirmed with ``97`` (bit 7 of
   the condition flags: the selected motor, §10 9; it clears nothing). F is refused while a
   motor moves (§10 F, 動作中 ×) with the same bare '>': without the confirmation a motor-2

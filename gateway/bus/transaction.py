@@ -11,7 +11,7 @@ For each command of the caller:
    otherwise read back and reported DONE / NOT_DONE / UNKNOWN (DESIGN invariant 6);
 5. EEPROM writes hold the line until their ``$B#*`` (§10 AW, DW, IW, EE///), serving stops.
 
-A stop queued meanwhile goes out before the transaction's next frame (``LoopCore.send``); once
+A stop queued meanwhile goes out before the transaction's next frame (``LineExchange.send``); once
 a stop to its own controller has gone, the transaction sends no more commands that act (only
 reads): the stop must not be undone by the move queued behind it.
 
@@ -25,7 +25,7 @@ from typing import Any
 
 from gateway.bus.detect import ensure_framing
 from gateway.bus.eeprom_hold import hold_for_write
-from gateway.bus.exchange import DOUBT, LoopCore, Sent
+from gateway.bus.exchange import DOUBT, LineExchange, Sent
 from gateway.bus.position_presets import presets_positions, read_backs
 from gateway.bus.read_back import (
     ValueCheck,
@@ -61,7 +61,7 @@ class TransactionRunner:
 
     def __init__(
         self,
-        core: LoopCore,
+        core: LineExchange,
         body: str,
         commands: tuple[Command, ...],
         motor: int | None,
@@ -73,7 +73,7 @@ class TransactionRunner:
         self.motor = motor
         self.program = program
         #: stops sent to the controller before the transaction started
-        self._stops = core.stops_sent.get(body, 0)
+        self._stops = core.stops.sent_to(body)
 
     async def run(self) -> tuple[list[CommandResult], int]:
         """Every command's result, and the number of frames sent."""
@@ -169,8 +169,8 @@ class TransactionRunner:
             refused = await self._prepare(st)
             if refused is not None:
                 return refused
-            if core.stop_waiting.is_set():
-                await core.stops_first()
+            if core.stops.waiting():
+                await core.stops.send_queued()
             if self._overtaken(command):
                 note = "a stop to this controller went out first: not sent"
                 return st.result(ReplyKind.SKIPPED, Outcome.NOT_DONE, note)
@@ -198,7 +198,7 @@ class TransactionRunner:
 
     def _overtaken(self, command: Command) -> bool:
         """A stop to this controller went out during the transaction, and ``command`` acts."""
-        if self.core.stops_sent.get(self.body, 0) == self._stops:
+        if self.core.stops.sent_to(self.body) == self._stops:
             return False
         return command.form.effect not in (Effect.QUERY, Effect.STOP)
 

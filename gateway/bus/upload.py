@@ -15,7 +15,7 @@ from dataclasses import replace
 from typing import Any
 
 from gateway.bus.detect import ensure_framing
-from gateway.bus.exchange import LoopCore
+from gateway.bus.exchange import LineExchange
 from gateway.bus.requests import CommandResult, Outcome, ReplyKind
 from gateway.bus.retries import Retries
 from gateway.bus.timing import ack_chars
@@ -32,7 +32,7 @@ Query = Callable[[Command], Awaitable[ReplyValue | None]]
 
 
 async def upload(
-    core: LoopCore, body: str, command: Command, program: Program, query: Query
+    core: LineExchange, body: str, command: Command, program: Program, query: Query
 ) -> CommandResult:
     """Send ``I`` and ``program``; the result of the whole upload, reported under ``I``."""
     seen: dict[str, Any] = {}
@@ -70,7 +70,7 @@ async def upload(
     return CommandResult(command, text_kind, outcome, attempts=attempts, seen=seen, note=note)
 
 
-async def _send_text(core: LoopCore, body: str, program: Program) -> ReplyKind:
+async def _send_text(core: LineExchange, body: str, program: Program) -> ReplyKind:
     framing = replace(core.framing.get(body), echo=False)
     pieces = [to_wire(chunk) for chunk in upload_chunks(program, core.config.upload_chunk)]
     before = 0

@@ -328,9 +328,9 @@ class SerialLine(BufferedTransport):
         # runs on) does not take, and nothing of the pyserial object it makes is used here.
         parts = urllib.parse.urlsplit(self.url)
         host, port = parts.hostname or "", parts.port or 0  # both there: LineKind.of
-        loop = asyncio.get_running_loop()
+        event_loop = asyncio.get_running_loop()
         transport, _ = await asyncio.wait_for(
-            loop.create_connection(lambda: protocol, host, port),
+            event_loop.create_connection(lambda: protocol, host, port),
             self.open_timeout,
         )
         sock = transport.get_extra_info("socket")
@@ -351,8 +351,10 @@ class SerialLine(BufferedTransport):
         port = await self._in_thread(open_and_check)
         self._adapter = found[0]
         self._notes.tell(self._adapter)
-        loop = asyncio.get_running_loop()
-        transport, _ = await serial_asyncio_fast.connection_for_serial(loop, lambda: protocol, port)
+        event_loop = asyncio.get_running_loop()
+        transport, _ = await serial_asyncio_fast.connection_for_serial(
+            event_loop, lambda: protocol, port
+        )
         return _AioPort(transport, protocol, self.close_timeout)
 
     async def _open_rfc2217(self, protocol: LineProtocol) -> _Port:
