@@ -11,7 +11,7 @@ from __future__ import annotations
 from gateway.api.metrics.exposition import Exposition
 from gateway.service.audit import MEMORY, PAGE_LIMIT, AuditRecord
 
-__all__ = ["MEMORY", "PAGE_LIMIT", "AuditLog"]
+__all__ = ["MEMORY", "PAGE_LIMIT", "AuditLog", "audit_exposition"]
 
 
 class AuditLog(AuditRecord):
@@ -19,19 +19,24 @@ class AuditLog(AuditRecord):
 
     def exposition(self) -> str:
         """The audit log's metrics in the Prometheus text format."""
-        out = Exposition()
-        out.family("rc233_audit_entries_total", "counter", "Audit entries recorded.")
-        out.sample("rc233_audit_entries_total", {}, self.last_seq)
-        out.family(
-            "rc233_audit_write_errors_total", "counter", "Audit lines a write to the file failed."
-        )
-        out.sample("rc233_audit_write_errors_total", {}, self.write_errors)
-        out.family(
-            "rc233_audit_refused_total",
-            "counter",
-            "Requests refused (503) because their audit entry could not be written.",
-        )
-        out.sample("rc233_audit_refused_total", {}, self.refused)
-        out.family("rc233_audit_log_ok", "gauge", "0 while the last write to the file failed.")
-        out.sample("rc233_audit_log_ok", {}, 1 if self.healthy else 0)
-        return out.text()
+        return audit_exposition(self)
+
+
+def audit_exposition(audit: AuditRecord) -> str:
+    """The metrics of the audit record ``audit`` in the Prometheus text format."""
+    out = Exposition()
+    out.family("rc233_audit_entries_total", "counter", "Audit entries recorded.")
+    out.sample("rc233_audit_entries_total", {}, audit.last_seq)
+    out.family(
+        "rc233_audit_write_errors_total", "counter", "Audit lines a write to the file failed."
+    )
+    out.sample("rc233_audit_write_errors_total", {}, audit.write_errors)
+    out.family(
+        "rc233_audit_refused_total",
+        "counter",
+        "Requests refused (503) because their audit entry could not be written.",
+    )
+    out.sample("rc233_audit_refused_total", {}, audit.refused)
+    out.family("rc233_audit_log_ok", "gauge", "0 while the last write to the file failed.")
+    out.sample("rc233_audit_log_ok", {}, 1 if audit.healthy else 0)
+    return out.text()

@@ -40,12 +40,14 @@ from gateway.cli.connection_guard import uvicorn_connection_options
 from gateway.cli.logs import configure_logging
 from gateway.cli.notify import notify
 from gateway.cli.simulated_lines import SimulatedCell, sim_line, simulated_lines
+from gateway.compose import compose
 from gateway.mqtt.commands import DeviceCommands
 from gateway.mqtt.edge_node import EdgeNode
 from gateway.opcua.face import OpcUaFace
 from gateway.service.config import ConfigError, GatewayConfig
 from gateway.service.runtime.runtime import Runtime
 from gateway.service.runtime.state_log import StateLog
+from gateway.service.services import Services
 from gateway.service.store import StateStore, default_state_dir
 from gateway.sim.cli import (
     add_clock_option,
@@ -172,38 +174,32 @@ def _auth(args: argparse.Namespace, config: GatewayConfig) -> AuthConfig:
     return auth
 
 
-def _edge_node(
-    runtime: Runtime, config: GatewayConfig, auth: AuthConfig, app: Any
-) -> EdgeNode | None:
-    """The Sparkplug B edge node of ``[mqtt]`` (None without the section); its DCMDs are
-    authorised by the API's tokens (always: no-auth mode is for loopback, a broker is not)
-    and written to the API's audit log."""
+def _edge_node(services: Services, config: GatewayConfig, auth: AuthConfig) -> EdgeNode | None:
+    """The Sparkplug B edge node of ``[mqtt]`` (None without the section) over ``services``;
+    its DCMDs are authorised by the API's tokens (always: no-auth mode is for loopback, a
+    broker is not) and written to the shared audit record."""
     if config.mqtt is None:
         return None
-    audit = app.state.audit
-    commands = DeviceCommands(axes=app.state.axes, lookup=auth.book.lookup, audit=audit.record,
-                              ahead=audit.write_ahead)  # fmt: skip
+    commands = DeviceCommands.serving(services, auth.book.principal)
     mqtt = config.mqtt
     print(f"rc233-gateway serve: Sparkplug B edge node {mqtt.group}/{mqtt.edge_node} on "
           f"{mqtt.host}:{mqtt.port}", flush=True)  # fmt: skip
-    return EdgeNode(runtime, mqtt, commands=commands)
+    return EdgeNode(services.runtime, mqtt, commands=commands)
 
 
 def _opcua_face(
-    runtime: Runtime, config: GatewayConfig, auth: AuthConfig, app: Any, store: StateStore
+    services: Services, config: GatewayConfig, auth: AuthConfig, store: StateStore
 ) -> OpcUaFace | None:
-    """The OPC UA server of ``[opcua]`` (None without the section): its users are the API's
-    tokens (always, as for MQTT: no-auth mode is for loopback), its calls go to the API's
-    services and audit record; its certificate, when made, is kept in the state directory."""
+    """The OPC UA server of ``[opcua]`` (None without the section) over ``services``: its
+    users are the API's tokens (always, as for MQTT: no-auth mode is for loopback), its calls
+    go to the shared services and audit record; its certificate, when made, is kept in the
+    state directory."""
     if config.opcua is None:
         return None
     print(f"rc233-gateway serve: OPC UA server {config.opcua.endpoint}", flush=True)
-    audit = app.state.audit
     return OpcUaFace(
-        runtime, config.opcua, axes=app.state.axes, stops=app.state.stops,
-        lookup=auth.book.lookup, audit=audit.record, ahead=audit.write_ahead,
-        state_dir=store.directory,
-    )  # fmt: skip
+        services, config.opcua, identify=auth.book.principal, state_dir=store.directory
+    )
 
 
 def _configured(args: argparse.Namespace) -> GatewayConfig | None:
@@ -271,7 +267,8 @@ async def _serve(
     lines = None if cell is None else cell.lines
     runtime = Runtime(config, time_scale=args.time_scale, store=store, worker_lines=lines)
     StateLog(runtime).start()
-    app = create_app(runtime, auth=auth)
+    services = compose(runtime)  # built once: the app, the edge node and OPC UA share them
+    app = create_app(services, auth=auth)
     if auth.no_auth:
         log.warning(
             "AUTHENTICATION IS OFF: anyone who can reach http://%s:%d may move the machines "
@@ -302,9 +299,9 @@ async def _serve(
         + f" state {store.directory}",
         flush=True,
     )
-    edge_node = _edge_node(runtime, config, auth, app)
+    edge_node = _edge_node(services, config, auth)
     node_task = asyncio.create_task(edge_node.run()) if edge_node is not None else None
-    opcua = _opcua_face(runtime, config, auth, app, store)
+    opcua = _opcua_face(services, config, auth, store)
     opcua_started = False
     try:
         if opcua is not None:

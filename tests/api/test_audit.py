@@ -337,7 +337,7 @@ async def test_a_failing_audit_file_makes_the_gateway_not_ready_until_it_takes_w
         r = await api.client.post("/axes/x/stop")
         assert r.status_code == 200, r.text
         assert (await api.client.get("http://localhost/readyz")).status_code == 200
-        audit: AuditLog = api.app.state.audit
+        audit: AuditLog = api.services.audit
         audit.retry_interval = 0.05
         await audit.flush()
         path.unlink()
