@@ -49,12 +49,7 @@ from gateway.service.runtime.runtime import Runtime
 from gateway.service.runtime.state_log import StateLog
 from gateway.service.services import Services
 from gateway.service.store import StateStore, default_state_dir
-from gateway.sim.cli import (
-    add_clock_option,
-    host_port,
-    parse_bodies,
-    positive,
-)
+from gateway.sim.cli import add_loop_options
 from gateway.sim.scene import SceneError
 from gateway.transport.base import Transport
 from gateway.transport.factory import open_transport
@@ -124,23 +119,12 @@ def add_serve_parser(subparsers: Any) -> argparse.ArgumentParser:
         action="store_true",
         help="no token asked: the API is open (loopback only; logged loudly)",
     )
-    sim = serve.add_argument_group("with --simulate (as `rc233-gateway sim`)")
-    sim.add_argument(
-        "--bodies",
-        type=parse_bodies,
-        default=["1", "2", "3"],
-        help="default 1,2,3 (with --config: the file's)",
+    sim = serve.add_argument_group(
+        "with --simulate (as `rc233-gateway sim`)",
+        "With --config, the loops and bodies are the file's;\n"
+        "--control is the first loop's, served by its line worker.",
     )
-    sim.add_argument("--scene", type=Path, metavar="FILE", help="sensor layout (TOML)")
-    sim.add_argument("--eeprom-dir", type=Path, metavar="DIR", help="the controllers' EEPROM")
-    sim.add_argument("--time-scale", type=positive, default=1.0, metavar="X", help="speed-up")
-    add_clock_option(sim)
-    sim.add_argument(
-        "--control",
-        type=host_port,
-        metavar="HOST:PORT",
-        help="control surface (of the first loop; served by its line worker)",
-    )
+    add_loop_options(sim, bodies="1,2,3")
     serve.add_argument("-v", "--verbose", action="store_true", help="debug logging")
     serve.add_argument(
         "--log-format",
