@@ -88,7 +88,8 @@ def test_the_check_finds_a_moved_module() -> None:
     # What the check would say of names as they were before api/ had subpackages.
     assert not _module_exists("gateway.api.deps")
     assert not (PACKAGE / "api/deps.py").exists()
-    assert _module_exists("gateway.api.routes.deps") and _module_exists("gateway.api.app.API_PREFIX")
+    assert _module_exists("gateway.api.routes.deps")
+    assert _module_exists("gateway.api.app.API_PREFIX")
     assert _ROOTED.findall("see `gateway/api/deps.py`.") == ["gateway/api/deps.py"]
     assert _INSIDE.findall("in api/routes/deps.py,") == ["api/routes/deps.py"]
     assert _ROOTED.findall("/etc/rc233-gateway/cell.toml") == []

@@ -276,9 +276,13 @@ class AuditEntry(BaseModel):
     client: str | None = None
     method: str
     path: str
-    query: str = ""
+    query: str | None = Field(
+        "", description="the query string; null in the entry of a DCMD or an OPC UA call"
+    )
     body: Any = None
-    status: int | None = None
+    status: int | str | None = Field(
+        None, description="the HTTP status (a DCMD's too), or an OPC UA call's status code name"
+    )
     duration_ms: float | None = None
     bytes_sent: list[str] | str | None = Field(
         None, description="the frames sent (longer than 1 KiB: cut, with bytes_sha256)"

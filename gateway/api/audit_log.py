@@ -2,8 +2,9 @@
 
 ``AuditLog`` is ``gateway.service.audit.AuditRecord`` (entries written ahead of what acts,
 numbered and chained in a file that cannot tear, the newest in memory) with ``exposition()``
-for ``/metrics``: entries written, write errors, requests refused because their entry could
-not be written, and whether the file takes writes (``rc233_audit_log_ok``).
+for ``/metrics`` (``audit_exposition`` of any audit record: the one the services hold):
+entries written, write errors, requests refused because their entry could not be written, and
+whether the file takes writes (``rc233_audit_log_ok``).
 """
 
 from __future__ import annotations

@@ -6,8 +6,8 @@
 whose device is not there (yet) starts down and comes up when it appears. ``serve --simulate``
 runs simulated loops (``simulated_lines``) through the same line workers, each worker holding
 its loops' simulators: without a file one loop (``sim``) with three controllers whose axes are
-named (gateway/service/runtime/simulated.py); with ``--config`` the file's loops, controllers, names,
-units, tokens and audit log, each loop's port replaced by a simulated loop (9600 bps). Either
+named (gateway/service/runtime/simulated.py); with ``--config`` the file's loops, controllers,
+names, units, tokens and audit log, each loop's port replaced by a simulated loop (9600 bps). Either
 takes the simulator's options. A configuration can equally point a loop at ``rc233-gateway sim
 --pty`` or ``--tcp`` through its device path or ``socket://`` URL: the path a real site uses.
 
