@@ -13,8 +13,6 @@ a jog left running is stopped by this process), then the loops; closing runs the
 
 from __future__ import annotations
 
-from collections.abc import AsyncIterator
-from contextlib import asynccontextmanager
 from dataclasses import dataclass
 
 from gateway.service.audit import AuditRecord
@@ -57,12 +55,3 @@ class Services:
         self.operations.close()
         await self.runtime.close()
         await self.audit.close()
-
-    @asynccontextmanager
-    async def running(self) -> AsyncIterator[Services]:
-        """``start()`` on entry, ``close()`` on exit (also after an error)."""
-        await self.start()
-        try:
-            yield self
-        finally:
-            await self.close()
