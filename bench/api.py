@@ -65,7 +65,8 @@ async def serve(rate_limit: int) -> None:
     from gateway.api.security import AuthConfig
     from gateway.api.ws import endpoint as ws
     from gateway.bus.events import ReplyObserved
-    from gateway.protocol.command_text import parse
+    from gateway.compose import compose
+    from gateway.protocol.registry import parse
     from gateway.service.runtime.runtime import Runtime
     from gateway.service.runtime.simulated import SIM_LOOP, simulated_config
     from gateway.sim.cli import build_loop
@@ -77,7 +78,7 @@ async def serve(rate_limit: int) -> None:
     config = simulated_config(("1", "2", "3"))
     transport = PipeTransport(lambda: SimPort(sim))
     gateway = Runtime(config, transports={SIM_LOOP: transport})
-    app: FastAPI = create_app(gateway, auth=AuthConfig(no_auth=True))
+    app: FastAPI = create_app(compose(gateway), auth=AuthConfig(no_auth=True))
 
     @app.get(f"{API_PREFIX}/bench/trivial")
     async def trivial() -> dict[str, bool]:
@@ -135,7 +136,7 @@ async def serve(rate_limit: int) -> None:
         times = sorted(publish_ms)
         q = statistics.quantiles(times, n=100, method="inclusive") if len(times) > 1 else [0.0] * 99
         gcs = {f"gen{g}": [n, round(ms, 2)] for g, (n, ms) in sorted(collections.items())}
-        clients = list(app.state.feed._clients)
+        clients = list(app.state.services.feed._clients)
         return {
             # Clients the feed writes through their queue and sender task only.
             "clients_without_direct_writer": sum(c.direct is None for c in clients),

@@ -73,7 +73,8 @@ async def serve() -> None:
     from gateway.api.security import AuthConfig
     from gateway.api.ws import endpoint as ws
     from gateway.bus.events import ReplyObserved
-    from gateway.protocol.command_text import parse
+    from gateway.compose import compose
+    from gateway.protocol.registry import parse
     from gateway.service.runtime.runtime import Runtime
     from gateway.service.runtime.simulated import SIM_LOOP, simulated_config
     from gateway.sim.cli import build_loop
@@ -84,7 +85,7 @@ async def serve() -> None:
     sim = build_loop(BODIES, clock=SimClock(1.0))
     config = simulated_config(BODIES)
     gateway = Runtime(config, transports={SIM_LOOP: PipeTransport(lambda: SimPort(sim))})
-    app: FastAPI = create_app(gateway, auth=AuthConfig(no_auth=True))
+    app: FastAPI = create_app(compose(gateway), auth=AuthConfig(no_auth=True))
     reads = {1: parse("61"), 2: parse("62")}
     tasks: set[asyncio.Task[None]] = set()
 

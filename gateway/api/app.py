@@ -1,10 +1,12 @@
 """The FastAPI application: routers, error handlers, security, audit, metrics, WebSocket.
 
-``create_app(gateway, no_auth=...)`` wires the service objects onto ``app.state`` (the
-routers read them from there) and mounts every router under ``/api/v1``; ``/healthz``,
+``create_app(services, auth=...)`` is the HTTP face of the services the composition root
+built (``gateway.compose``): it holds them once (``gateway.api.app_services``, whose getters
+the routes use) and mounts every router under ``/api/v1``; ``/healthz``,
 ``/readyz`` and ``/metrics`` stay at the root for probes and scrapers; the browser dashboard is
 served at ``/`` and the API docs at ``/api/v1/docs`` from the package's own files
-(``gateway.api.dashboard``). The app's lifespan starts the gateway's loops and, on shutdown,
+(``gateway.api.dashboard``). The app's lifespan starts the services (``Services.start``:
+the audit record, the operations left unended, the loops) and, on shutdown,
 stops accepting requests, lets each loop's transaction in flight finish (a move half-sent is
 worse than one refused) and closes the ports.
 """
@@ -19,13 +21,8 @@ from fastapi import FastAPI
 from fastapi.middleware.cors import CORSMiddleware
 
 from gateway import __version__
-from gateway.api.audit import (
-    AuditLog,
-    control_entry,
-    install_audit,
-    origin_entry,
-    resolution_entry,
-)
+from gateway.api.app_services import hold_services
+from gateway.api.audit import install_audit
 from gateway.api.auth_failures import AuthFailures
 from gateway.api.dashboard import install_dashboard
 from gateway.api.middleware.body_gate import BodyGate
@@ -47,18 +44,7 @@ from gateway.api.routes.axis_read_path import AxisReadPath
 from gateway.api.routes.health import install_health_and_metrics
 from gateway.api.security import AuthConfig, install_security
 from gateway.api.ws import endpoint as ws
-from gateway.service.audit import FsyncPolicy, RotationPolicy
-from gateway.service.axes.service import AxisService
-from gateway.service.baud import BaudChanger
-from gateway.service.config import GatewayConfig
-from gateway.service.control import ControlChange
-from gateway.service.controllers.service import ControllerService
-from gateway.service.events import ServiceEvent
-from gateway.service.feed import Feed
-from gateway.service.leases import Leases
-from gateway.service.operations.registry import Operations
-from gateway.service.runtime.runtime import Runtime
-from gateway.service.stops import StopAll
+from gateway.service.services import Services
 
 __all__ = ["API_PREFIX", "create_app"]
 
@@ -86,64 +72,20 @@ REST and WebSocket access to RORZE RC-233 controllers on RS-232C loops.
 """
 
 
-def audit_of(config: GatewayConfig) -> AuditLog:
-    """The audit log of ``config`` (``audit_log``, ``[audit]``)."""
-    settings = config.audit
-    return AuditLog(
-        config.audit_log,
-        rotation=RotationPolicy(max_bytes=settings.max_bytes, keep=settings.keep),
-        fsync=FsyncPolicy(settings.fsync),
-        retry_interval=settings.retry_seconds,
-    )
-
-
-def create_app(runtime: Runtime, *, auth: AuthConfig) -> FastAPI:
-    """The application serving ``gateway`` with ``auth`` (tokens, or no-auth mode)."""
-    audit = audit_of(runtime.config)
-    leases = Leases()
-    operations = Operations(runtime)
-    operations.on_resolved(lambda op: audit.record(resolution_entry(op, API_PREFIX)))
-    # A jog the last process left running, stopped by this one at start: no request made it.
-    operations.on_restart_stop(lambda stop: audit.record(stop.audit_entry(API_PREFIX)))
-
-    # An admin's change of the control state is its request's entry; a key switch's has none.
-    def audit_key_switch(change: ControlChange) -> None:
-        if change.source == "key_switch":
-            audit.record(control_entry(change, API_PREFIX))
-
-    runtime.control.changes.subscribe(audit_key_switch)
-
-    def audit_origin(event: ServiceEvent) -> None:  # a reset seen on the line: no request
-        entry = origin_entry(event, API_PREFIX)
-        if entry is not None:
-            audit.record(entry)
-
-    runtime.events.subscribe(audit_origin)
-    feed = Feed(
-        runtime.topology,
-        runtime.state,
-        runtime.events,
-        runtime.config.ws,
-        control=runtime.control,
-        loop_baud=lambda name: runtime.scheduler(name).timing.baud,
-        loop_adapter=lambda name: runtime.scheduler(name).transport.adapter,
-    )
-
+def create_app(services: Services, *, auth: AuthConfig) -> FastAPI:
+    """The HTTP face of ``services`` (``gateway.compose.compose``) with ``auth`` (tokens, or
+    no-auth mode). Its lifespan starts and closes them (``Services.start`` / ``close``)."""
+    runtime = services.runtime
     install_log_redaction()  # no token in any log line, whoever prints it
 
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
-        audit.start()
-        await operations.restore()  # before the loops: what the last process left unended
-        await runtime.start()
+        await services.start()
         try:
             yield
         finally:
-            feed.close()
-            operations.close()
             failures.close()
-            await runtime.close()
-            await audit.close()
+            await services.close()
 
     app = FastAPI(
         title="rc233-gateway",
@@ -156,13 +98,7 @@ def create_app(runtime: Runtime, *, auth: AuthConfig) -> FastAPI:
         redoc_url=None,
         generate_unique_id_function=operation_id,
     )
-    app.state.runtime = runtime
-    app.state.leases = leases
-    app.state.operations = operations
-    app.state.axes = AxisService(runtime, operations, leases)
-    app.state.controllers = ControllerService(runtime, leases, operations)
-    app.state.stops = StopAll(runtime, operations)
-    app.state.baud = BaudChanger(runtime)
+    hold_services(app, services)
     modules = (
         routes_axes,
         routes_operations,
@@ -171,11 +107,10 @@ def create_app(runtime: Runtime, *, auth: AuthConfig) -> FastAPI:
         routes_control,
         routes_baud,
         routes_session,
-        ws,
     )
     for module in modules:
         app.include_router(module.router, prefix=API_PREFIX)
-    ws.install_ws(app, feed)
+    ws.install_ws(app, services.feed, API_PREFIX)
     install_dashboard(app, API_PREFIX)
     # Middleware added later wraps what was added before: the cached read innermost, then
     # the problem handlers, security, idempotency, the body gate (inside the audit, which
@@ -187,11 +122,11 @@ def create_app(runtime: Runtime, *, auth: AuthConfig) -> FastAPI:
     # Around it: a caller's fresh reads beyond a few at a time become cached reads.
     app.add_middleware(FreshReadGate, prefix=API_PREFIX)
     install_problem_handlers(app)
-    failures = AuthFailures(audit.record)
+    failures = AuthFailures(services.audit.record)
     install_security(app, auth, failures)
     install_idempotency(app, runtime.store)
     app.add_middleware(BodyGate)
-    install_audit(app, audit)
+    install_audit(app, services.audit)
     # Outside the audit (a request to another host or from another site never reached the
     # API), inside the metrics and the access line (which count it).
     app.add_middleware(

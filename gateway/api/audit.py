@@ -37,7 +37,7 @@ from gateway.api.problems import PROBLEM_RESPONSES
 from gateway.api.redaction import redact
 from gateway.api.security import Principal, principal_of, require
 from gateway.errors import InvalidInputError
-from gateway.service.audit import AuditUnavailable, utc_now
+from gateway.service.audit import AuditRecord, AuditUnavailable, utc_now
 from gateway.service.audit.bounds import VALUE_LIMIT
 from gateway.service.control import ControlChange
 from gateway.service.events import EventKind, ServiceEvent
@@ -51,11 +51,11 @@ __all__ = [
     "AuditMiddleware",
     "AuditPage",
     "audit_note",
+    "audit_router",
     "control_entry",
     "install_audit",
     "origin_entry",
     "resolution_entry",
-    "router",
 ]
 
 log = logging.getLogger("gateway.audit")
@@ -167,7 +167,7 @@ def _body(raw: bytes, total: int, sha256: str) -> dict[str, Any]:
 class AuditMiddleware:
     """Record every mutating HTTP request in ``audit`` once its response has started."""
 
-    def __init__(self, app: ASGIApp, audit: AuditLog) -> None:
+    def __init__(self, app: ASGIApp, audit: AuditRecord) -> None:
         self.app = app
         self.audit = audit
 
@@ -276,9 +276,13 @@ class AuditEntry(BaseModel):
     client: str | None = None
     method: str
     path: str
-    query: str = ""
+    query: str | None = Field(
+        "", description="the query string; null in the entry of a DCMD or an OPC UA call"
+    )
     body: Any = None
-    status: int | None = None
+    status: int | str | None = Field(
+        None, description="the HTTP status (a DCMD's too), or an OPC UA call's status code name"
+    )
     duration_ms: float | None = None
     bytes_sent: list[str] | str | None = Field(
         None, description="the frames sent (longer than 1 KiB: cut, with bytes_sha256)"
@@ -294,9 +298,6 @@ class AuditPage(BaseModel):
 
     entries: list[AuditEntry]
     last_seq: int
-
-
-router = APIRouter(tags=["audit"])
 
 
 def _since(text: str | None) -> tuple[int | None, datetime | None]:
@@ -321,32 +322,33 @@ def _since(text: str | None) -> tuple[int | None, datetime | None]:
     return None, moment if moment.tzinfo else moment.replace(tzinfo=UTC)
 
 
-@router.get("/api/v1/audit", response_model=AuditPage, responses=PROBLEM_RESPONSES)
-async def read_audit(
-    request: Request,
-    _: Annotated[Principal, Depends(require(Role.ADMIN))],
-    limit: Annotated[int, Query(ge=1, le=PAGE_LIMIT)] = 100,
-    since: Annotated[
-        str | None,
-        Query(max_length=64, description="a seq (entries after it) or an ISO 8601 time"),
-    ] = None,
-) -> AuditPage:
-    """The audit log (admin): the newest ``limit`` entries, or the first after ``since``."""
-    audit: AuditLog = request.app.state.audit
-    seq, after = _since(since)
-    await audit.flush()  # outcomes still queued are written first: the page shows them
-    return AuditPage(
-        entries=[AuditEntry(**e) for e in await audit.page(limit=limit, since=seq, after=after)],
-        last_seq=audit.last_seq,
-    )
+def audit_router(audit: AuditRecord) -> APIRouter:
+    """``GET /api/v1/audit`` (admin) over ``audit``."""
+    router = APIRouter(tags=["audit"])
+
+    @router.get("/api/v1/audit", response_model=AuditPage, responses=PROBLEM_RESPONSES)
+    async def read_audit(
+        _: Annotated[Principal, Depends(require(Role.ADMIN))],
+        limit: Annotated[int, Query(ge=1, le=PAGE_LIMIT)] = 100,
+        since: Annotated[
+            str | None,
+            Query(max_length=64, description="a seq (entries after it) or an ISO 8601 time"),
+        ] = None,
+    ) -> AuditPage:
+        """The audit log (admin): the newest ``limit`` entries, or the first after ``since``."""
+        seq, after = _since(since)
+        await audit.flush()  # outcomes still queued are written first: the page shows them
+        page = await audit.page(limit=limit, since=seq, after=after)
+        return AuditPage(entries=[AuditEntry(**e) for e in page], last_seq=audit.last_seq)
+
+    return router
 
 
-def install_audit(app: FastAPI, audit: AuditLog) -> None:
+def install_audit(app: FastAPI, audit: AuditRecord) -> None:
     """Audit every mutating request of ``app`` into ``audit`` and serve ``GET /api/v1/audit``.
 
     Call after ``install_problem_handlers`` (so refused and failed requests are recorded with
     their status); ``await audit.close()`` at shutdown.
     """
-    app.state.audit = audit
     app.add_middleware(AuditMiddleware, audit=audit)
-    app.include_router(router)
+    app.include_router(audit_router(audit))

@@ -2,8 +2,9 @@
 
 ``AuditLog`` is ``gateway.service.audit.AuditRecord`` (entries written ahead of what acts,
 numbered and chained in a file that cannot tear, the newest in memory) with ``exposition()``
-for ``/metrics``: entries written, write errors, requests refused because their entry could
-not be written, and whether the file takes writes (``rc233_audit_log_ok``).
+for ``/metrics`` (``audit_exposition`` of any audit record: the one the services hold):
+entries written, write errors, requests refused because their entry could not be written, and
+whether the file takes writes (``rc233_audit_log_ok``).
 """
 
 from __future__ import annotations
@@ -11,7 +12,7 @@ from __future__ import annotations
 from gateway.api.metrics.exposition import Exposition
 from gateway.service.audit import MEMORY, PAGE_LIMIT, AuditRecord
 
-__all__ = ["MEMORY", "PAGE_LIMIT", "AuditLog"]
+__all__ = ["MEMORY", "PAGE_LIMIT", "AuditLog", "audit_exposition"]
 
 
 class AuditLog(AuditRecord):
@@ -19,19 +20,24 @@ class AuditLog(AuditRecord):
 
     def exposition(self) -> str:
         """The audit log's metrics in the Prometheus text format."""
-        out = Exposition()
-        out.family("rc233_audit_entries_total", "counter", "Audit entries recorded.")
-        out.sample("rc233_audit_entries_total", {}, self.last_seq)
-        out.family(
-            "rc233_audit_write_errors_total", "counter", "Audit lines a write to the file failed."
-        )
-        out.sample("rc233_audit_write_errors_total", {}, self.write_errors)
-        out.family(
-            "rc233_audit_refused_total",
-            "counter",
-            "Requests refused (503) because their audit entry could not be written.",
-        )
-        out.sample("rc233_audit_refused_total", {}, self.refused)
-        out.family("rc233_audit_log_ok", "gauge", "0 while the last write to the file failed.")
-        out.sample("rc233_audit_log_ok", {}, 1 if self.healthy else 0)
-        return out.text()
+        return audit_exposition(self)
+
+
+def audit_exposition(audit: AuditRecord) -> str:
+    """The metrics of the audit record ``audit`` in the Prometheus text format."""
+    out = Exposition()
+    out.family("rc233_audit_entries_total", "counter", "Audit entries recorded.")
+    out.sample("rc233_audit_entries_total", {}, audit.last_seq)
+    out.family(
+        "rc233_audit_write_errors_total", "counter", "Audit lines a write to the file failed."
+    )
+    out.sample("rc233_audit_write_errors_total", {}, audit.write_errors)
+    out.family(
+        "rc233_audit_refused_total",
+        "counter",
+        "Requests refused (503) because their audit entry could not be written.",
+    )
+    out.sample("rc233_audit_refused_total", {}, audit.refused)
+    out.family("rc233_audit_log_ok", "gauge", "0 while the last write to the file failed.")
+    out.sample("rc233_audit_log_ok", {}, 1 if audit.healthy else 0)
+    return out.text()

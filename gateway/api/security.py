@@ -41,6 +41,7 @@ except ImportError:  # pragma: no cover - older FastAPI
 
 from gateway.api.auth_failures import AuthFailures, failures_of, throttled_problem
 from gateway.api.problems import ApiProblem, Problem, problem_type
+from gateway.service.principal import Principal
 from gateway.service.roles import Role
 
 __all__ = [
@@ -115,15 +116,6 @@ class TokenEntry:
     sha256: str
 
 
-@dataclass(frozen=True)
-class Principal:
-    """Who made a request: the token's name, its role, and the client's address."""
-
-    name: str
-    role: Role
-    client: str
-
-
 class TokenBook:
     """The known tokens, looked up by digest in constant time per entry."""
 
@@ -150,6 +142,12 @@ class TokenBook:
             if hmac.compare_digest(digest, entry.sha256.encode("ascii")) and found is None:
                 found = entry
         return found
+
+    def principal(self, token: str, client: str) -> Principal | None:
+        """Who ``token`` names, asking from ``client`` (None: unknown); an ``Identify`` of
+        every face."""
+        entry = self.lookup(token)
+        return None if entry is None else Principal(entry.name, entry.role, client)
 
 
 @dataclass(frozen=True)
@@ -180,8 +178,7 @@ class AuthConfig:
             return Principal(ANONYMOUS, Role.ADMIN, client)
         if not token:
             return None
-        entry = self.book.lookup(token)
-        return None if entry is None else Principal(entry.name, entry.role, client)
+        return self.book.principal(token, client)
 
 
 def install_security(app: FastAPI, auth: AuthConfig, failures: AuthFailures | None = None) -> None:

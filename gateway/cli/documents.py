@@ -16,6 +16,7 @@ from gateway.api.app import create_app
 from gateway.api.security import AuthConfig, TokenBook, hash_token, new_token
 from gateway.api.ws.asyncapi import asyncapi_document
 from gateway.api.ws.messages import ws_schema
+from gateway.compose import compose
 from gateway.service.runtime.runtime import Runtime
 from gateway.service.runtime.simulated import simulated_config
 
@@ -31,7 +32,7 @@ def documents() -> dict[str, dict[str, Any]]:
     WebSocket's AsyncAPI document."""
     # never started: building a Runtime starts no worker and opens no line
     runtime = Runtime(simulated_config())
-    app = create_app(runtime, auth=AuthConfig(TokenBook()))
+    app = create_app(compose(runtime), auth=AuthConfig(TokenBook()))
     return {OPENAPI_FILE: app.openapi(), WS_FILE: ws_schema(), ASYNCAPI_FILE: asyncapi_document()}
 
 

@@ -6,8 +6,8 @@
 whose device is not there (yet) starts down and comes up when it appears. ``serve --simulate``
 runs simulated loops (``simulated_lines``) through the same line workers, each worker holding
 its loops' simulators: without a file one loop (``sim``) with three controllers whose axes are
-named (gateway/service/simulated.py); with ``--config`` the file's loops, controllers, names,
-units, tokens and audit log, each loop's port replaced by a simulated loop (9600 bps). Either
+named (gateway/service/runtime/simulated.py); with ``--config`` the file's loops, controllers,
+names, units, tokens and audit log, each loop's port replaced by a simulated loop (9600 bps). Either
 takes the simulator's options. A configuration can equally point a loop at ``rc233-gateway sim
 --pty`` or ``--tcp`` through its device path or ``socket://`` URL: the path a real site uses.
 
@@ -40,19 +40,16 @@ from gateway.cli.connection_guard import uvicorn_connection_options
 from gateway.cli.logs import configure_logging
 from gateway.cli.notify import notify
 from gateway.cli.simulated_lines import SimulatedCell, sim_line, simulated_lines
+from gateway.compose import compose
 from gateway.mqtt.commands import DeviceCommands
 from gateway.mqtt.edge_node import EdgeNode
 from gateway.opcua.face import OpcUaFace
 from gateway.service.config import ConfigError, GatewayConfig
 from gateway.service.runtime.runtime import Runtime
 from gateway.service.runtime.state_log import StateLog
+from gateway.service.services import Services
 from gateway.service.store import StateStore, default_state_dir
-from gateway.sim.cli import (
-    add_clock_option,
-    host_port,
-    parse_bodies,
-    positive,
-)
+from gateway.sim.cli import add_loop_options
 from gateway.sim.scene import SceneError
 from gateway.transport.base import Transport
 from gateway.transport.factory import open_transport
@@ -122,23 +119,12 @@ def add_serve_parser(subparsers: Any) -> argparse.ArgumentParser:
         action="store_true",
         help="no token asked: the API is open (loopback only; logged loudly)",
     )
-    sim = serve.add_argument_group("with --simulate (as `rc233-gateway sim`)")
-    sim.add_argument(
-        "--bodies",
-        type=parse_bodies,
-        default=["1", "2", "3"],
-        help="default 1,2,3 (with --config: the file's)",
+    sim = serve.add_argument_group(
+        "with --simulate (as `rc233-gateway sim`)",
+        "With --config, the loops and bodies are the file's;\n"
+        "--control is the first loop's, served by its line worker.",
     )
-    sim.add_argument("--scene", type=Path, metavar="FILE", help="sensor layout (TOML)")
-    sim.add_argument("--eeprom-dir", type=Path, metavar="DIR", help="the controllers' EEPROM")
-    sim.add_argument("--time-scale", type=positive, default=1.0, metavar="X", help="speed-up")
-    add_clock_option(sim)
-    sim.add_argument(
-        "--control",
-        type=host_port,
-        metavar="HOST:PORT",
-        help="control surface (of the first loop; served by its line worker)",
-    )
+    add_loop_options(sim, bodies="1,2,3")
     serve.add_argument("-v", "--verbose", action="store_true", help="debug logging")
     serve.add_argument(
         "--log-format",
@@ -172,38 +158,32 @@ def _auth(args: argparse.Namespace, config: GatewayConfig) -> AuthConfig:
     return auth
 
 
-def _edge_node(
-    runtime: Runtime, config: GatewayConfig, auth: AuthConfig, app: Any
-) -> EdgeNode | None:
-    """The Sparkplug B edge node of ``[mqtt]`` (None without the section); its DCMDs are
-    authorised by the API's tokens (always: no-auth mode is for loopback, a broker is not)
-    and written to the API's audit log."""
+def _edge_node(services: Services, config: GatewayConfig, auth: AuthConfig) -> EdgeNode | None:
+    """The Sparkplug B edge node of ``[mqtt]`` (None without the section) over ``services``;
+    its DCMDs are authorised by the API's tokens (always: no-auth mode is for loopback, a
+    broker is not) and written to the shared audit record."""
     if config.mqtt is None:
         return None
-    audit = app.state.audit
-    commands = DeviceCommands(axes=app.state.axes, lookup=auth.book.lookup, audit=audit.record,
-                              ahead=audit.write_ahead)  # fmt: skip
+    commands = DeviceCommands.serving(services, auth.book.principal)
     mqtt = config.mqtt
     print(f"rc233-gateway serve: Sparkplug B edge node {mqtt.group}/{mqtt.edge_node} on "
           f"{mqtt.host}:{mqtt.port}", flush=True)  # fmt: skip
-    return EdgeNode(runtime, mqtt, commands=commands)
+    return EdgeNode(services.runtime, mqtt, commands=commands)
 
 
 def _opcua_face(
-    runtime: Runtime, config: GatewayConfig, auth: AuthConfig, app: Any, store: StateStore
+    services: Services, config: GatewayConfig, auth: AuthConfig, store: StateStore
 ) -> OpcUaFace | None:
-    """The OPC UA server of ``[opcua]`` (None without the section): its users are the API's
-    tokens (always, as for MQTT: no-auth mode is for loopback), its calls go to the API's
-    services and audit record; its certificate, when made, is kept in the state directory."""
+    """The OPC UA server of ``[opcua]`` (None without the section) over ``services``: its
+    users are the API's tokens (always, as for MQTT: no-auth mode is for loopback), its calls
+    go to the shared services and audit record; its certificate, when made, is kept in the
+    state directory."""
     if config.opcua is None:
         return None
     print(f"rc233-gateway serve: OPC UA server {config.opcua.endpoint}", flush=True)
-    audit = app.state.audit
     return OpcUaFace(
-        runtime, config.opcua, axes=app.state.axes, stops=app.state.stops,
-        lookup=auth.book.lookup, audit=audit.record, ahead=audit.write_ahead,
-        state_dir=store.directory,
-    )  # fmt: skip
+        services, config.opcua, identify=auth.book.principal, state_dir=store.directory
+    )
 
 
 def _configured(args: argparse.Namespace) -> GatewayConfig | None:
@@ -271,7 +251,8 @@ async def _serve(
     lines = None if cell is None else cell.lines
     runtime = Runtime(config, time_scale=args.time_scale, store=store, worker_lines=lines)
     StateLog(runtime).start()
-    app = create_app(runtime, auth=auth)
+    services = compose(runtime)  # built once: the app, the edge node and OPC UA share them
+    app = create_app(services, auth=auth)
     if auth.no_auth:
         log.warning(
             "AUTHENTICATION IS OFF: anyone who can reach http://%s:%d may move the machines "
@@ -302,9 +283,9 @@ async def _serve(
         + f" state {store.directory}",
         flush=True,
     )
-    edge_node = _edge_node(runtime, config, auth, app)
+    edge_node = _edge_node(services, config, auth)
     node_task = asyncio.create_task(edge_node.run()) if edge_node is not None else None
-    opcua = _opcua_face(runtime, config, auth, app, store)
+    opcua = _opcua_face(services, config, auth, store)
     opcua_started = False
     try:
         if opcua is not None:

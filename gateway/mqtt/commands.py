@@ -23,26 +23,18 @@ from gateway.errors import GatewayError
 from gateway.mqtt.sparkplug import Value
 from gateway.service.audit import WriteAhead
 from gateway.service.operations.terms import StopMode
+from gateway.service.principal import Identify, Principal
 from gateway.service.roles import Role
+from gateway.service.services import Services
 from gateway.service.topology import ControllerRef
 
-__all__ = ["CommandResult", "DeviceCommands", "Principal", "StopAxes"]
+__all__ = ["CLIENT", "CommandResult", "DeviceCommands", "StopAxes"]
 
 log = logging.getLogger("gateway.mqtt")
 
 TOKEN = "Command/Token"
-
-
-class Principal(Protocol):
-    """Who a token names (``gateway.api.security.Principal``)."""
-
-    @property
-    def name(self) -> str:
-        """The token's name."""
-
-    @property
-    def role(self) -> Role:
-        """Its role."""
+#: The client a DCMD's principal and audit entry name (a broker has no caller address).
+CLIENT = "mqtt"
 
 
 class StopAxes(Protocol):
@@ -64,13 +56,21 @@ class DeviceCommands:
     def __init__(
         self,
         axes: StopAxes,
-        lookup: Callable[[str], Principal | None],
+        identify: Identify,
         audit: Callable[[Mapping[str, Any]], object],
         ahead: WriteAhead | None = None,
     ) -> None:
-        self.axes, self.lookup, self.audit = axes, lookup, audit
+        self.axes, self.identify, self.audit = axes, identify, audit
         #: writes the entry of an authorised DCMD before it acts (None: not written ahead)
         self.ahead = ahead
+
+    @classmethod
+    def serving(cls, services: Services, identify: Identify) -> DeviceCommands:
+        """The DCMDs of ``services`` (the ones every face shares: a REST stop and an MQTT one
+        go to the same axes), authorised by ``identify``, written ahead to the shared audit
+        record."""
+        audit = services.audit
+        return cls(services.axes, identify, audit.record, ahead=audit.write_ahead)
 
     async def handle(
         self, topic: str, ctl: ControllerRef, labels: Mapping[str, str], metrics: dict[str, Value]
@@ -78,7 +78,7 @@ class DeviceCommands:
         """Carry out one DCMD to ``ctl`` (``labels``: axis label -> axis id); (status, text)."""
         began = time.perf_counter()
         token = metrics.pop(TOKEN, None)
-        principal = self.lookup(token) if isinstance(token, str) and token else None
+        principal = self.identify(token, CLIENT) if isinstance(token, str) and token else None
         actions: list[tuple[str, str]] = []
         status, result = 200, "done"
         for name, value in metrics.items():
@@ -136,7 +136,7 @@ def _entry(
         "time": _utc(),
         "token": principal.name if principal else None,
         "role": str(principal.role) if principal else None,
-        "client": "mqtt",
+        "client": CLIENT,
         "method": "DCMD",
         "path": topic,
         "query": None,

@@ -12,6 +12,7 @@ from __future__ import annotations
 import asyncio
 import logging
 import time
+from pathlib import Path
 from typing import Any
 
 from asyncua import Server, ua
@@ -19,16 +20,14 @@ from asyncua import Server, ua
 from gateway.opcua.address_space import Nodes, build
 from gateway.opcua.call_lanes import install_call_lanes, pending_calls
 from gateway.opcua.certificate import ensure_certificate, server_files
-from gateway.opcua.methods import Audit, Methods, StatusRefusal
+from gateway.opcua.methods import Methods, StatusRefusal
 from gateway.opcua.users import TokenUsers, install_caller_context
 from gateway.opcua.values import Shown, Target, axis_values, controller_values, loop_values
-from gateway.service.audit import WriteAhead
-from gateway.service.axes import AxisService
 from gateway.service.config import OpcUaSettings
 from gateway.service.events import EventKind, ServiceEvent
+from gateway.service.principal import Identify
 from gateway.service.runtime.bus_types import Change
-from gateway.service.runtime.runtime import Runtime
-from gateway.service.stops import StopAll
+from gateway.service.services import Services
 
 __all__ = ["OpcUaFace"]
 
@@ -62,19 +61,18 @@ class OpcUaFace:
 
     def __init__(
         self,
-        runtime: Runtime,
+        services: Services,
         settings: OpcUaSettings,
         *,
-        axes: AxisService,
-        stops: StopAll,
-        lookup: Any,
-        audit: Audit,
-        ahead: WriteAhead | None = None,
-        state_dir: Any,
+        identify: Identify,
+        state_dir: Path | None,
     ) -> None:
-        self.runtime, self.settings = runtime, settings
-        self.methods = Methods(axes, stops, audit, ahead)
-        self.users = TokenUsers(lookup, anonymous=settings.anonymous)
+        """The face of ``services`` (the ones every face shares: the REST API's leases and
+        operations bind its calls) whose users ``identify`` names."""
+        self.runtime, self.settings = services.runtime, settings
+        audit = services.audit
+        self.methods = Methods(services.axes, services.stops, audit.record, audit.write_ahead)
+        self.users = TokenUsers(identify, anonymous=settings.anonymous)
         self.state_dir = state_dir
         self.server = Server(user_manager=self.users)
         self.nodes: Nodes | None = None
@@ -191,6 +189,8 @@ class OpcUaFace:
         if any(p != "None" for p in settings.security_policies):
             cert, key = settings.certificate, settings.private_key
             if cert is None or key is None:
+                # serve's state store always has a directory; a test's in-memory one has none
+                assert self.state_dir is not None, "a certificate to make needs a state_dir"
                 cert, key = server_files(self.state_dir)
                 if await ensure_certificate(cert, key, settings.application_uri):
                     log.info("opcua: made the server certificate %s", cert)

@@ -14,17 +14,20 @@ from __future__ import annotations
 import contextvars
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
-from typing import Any, Protocol
+from typing import Any
 
 from asyncua.crypto.permission_rules import User, UserRole
 from asyncua.server.internal_session import InternalSession
 
+from gateway.service.principal import Identify
 from gateway.service.roles import Role
 
-__all__ = ["ANONYMOUS", "GatewayUser", "TokenUsers", "caller", "install_caller_context"]
+__all__ = ["ANONYMOUS", "CLIENT", "GatewayUser", "TokenUsers", "caller", "install_caller_context"]
 
 #: The name anonymous sessions are audited under.
 ANONYMOUS = "anonymous"
+#: The client an OPC UA session's principal names.
+CLIENT = "opcua"
 
 
 @dataclass
@@ -34,23 +37,11 @@ class GatewayUser(User):
     gateway_role: Role = Role.VIEWER
 
 
-class TokenEntryLike(Protocol):
-    """A token of the book (``gateway.api.security.TokenEntry``)."""
-
-    @property
-    def name(self) -> str:
-        """The token's name."""
-
-    @property
-    def role(self) -> Role:
-        """Its role."""
-
-
 class TokenUsers:
     """asyncua's user manager over the gateway's token book."""
 
-    def __init__(self, lookup: Callable[[str], TokenEntryLike | None], *, anonymous: bool) -> None:
-        self.lookup, self.anonymous = lookup, anonymous
+    def __init__(self, identify: Identify, *, anonymous: bool) -> None:
+        self.identify, self.anonymous = identify, anonymous
 
     def get_user(
         self,
@@ -65,10 +56,10 @@ class TokenUsers:
                 return None
             return GatewayUser(role=UserRole.User, name=ANONYMOUS, gateway_role=Role.VIEWER)
         token = password if isinstance(password, str) else None
-        entry = self.lookup(token) if token else None
-        if entry is None or entry.name != username:
+        principal = self.identify(token, CLIENT) if token else None
+        if principal is None or principal.name != username:
             return None
-        return GatewayUser(role=UserRole.User, name=entry.name, gateway_role=Role(entry.role))
+        return GatewayUser(role=UserRole.User, name=principal.name, gateway_role=principal.role)
 
 
 _CALLER: contextvars.ContextVar[GatewayUser | None] = contextvars.ContextVar(

@@ -31,6 +31,7 @@ from gateway.sim.serve import PtyLine, serve_tcp
 
 __all__ = [
     "add_clock_option",
+    "add_loop_options",
     "add_sim_parser",
     "build_loop",
     "default_eeprom_dir",
@@ -95,23 +96,12 @@ def add_sim_parser(subparsers: Any) -> argparse.ArgumentParser:
     where = sim.add_mutually_exclusive_group(required=True)
     where.add_argument("--pty", action="store_true", help="serve on a pseudo-terminal")
     where.add_argument("--tcp", type=host_port, metavar="HOST:PORT", help="serve on TCP")
-    sim.add_argument("--bodies", type=parse_bodies, default=["1"], help="e.g. 1,2,3 (default 1)")
-    sim.add_argument("--scene", type=Path, metavar="FILE", help="sensor layout (TOML)")
-    sim.add_argument(
-        "--eeprom-dir",
-        type=Path,
-        default=None,
-        metavar="DIR",
-        help=f"where the controllers keep their EEPROM (default {default_eeprom_dir()})",
-    )
-    sim.add_argument("--time-scale", type=positive, default=1.0, metavar="X", help="speed-up")
-    add_clock_option(sim)
+    add_loop_options(sim, bodies="1")
     sim.add_argument(
         "--baud", type=int, default=9600, choices=sorted(UART_RATES), metavar="BPS",
         help="the line's (the host's) baud rate; default 9600 (§10 ES factory setting)",
     )  # fmt: skip
     sim.add_argument("--series", choices=["$", "#"], default="$", help="start mark (§9-1)")
-    sim.add_argument("--control", type=host_port, metavar="HOST:PORT", help="control surface")
     sim.add_argument("--turnaround-ms", type=float, default=1.0, help="controller reply delay")
     for kind in ("nak", "drop", "garble", "late"):
         sim.add_argument(
@@ -123,6 +113,27 @@ def add_sim_parser(subparsers: Any) -> argparse.ArgumentParser:
     sim.add_argument("-v", "--verbose", action="store_true", help="log connections")
     sim.set_defaults(func=_main)
     return sim
+
+
+def add_loop_options(parser: Any, *, bodies: str) -> None:
+    """The options of a simulated loop, declared once for ``sim`` and ``serve --simulate``:
+    ``--bodies`` (default ``bodies``, e.g. ``"1,2,3"``), ``--scene``, ``--eeprom-dir``,
+    ``--time-scale``, ``--clock`` and ``--control``."""
+    # A string default goes through ``type`` like a command-line value: a list of bodies.
+    parser.add_argument(
+        "--bodies", type=parse_bodies, default=bodies, help="e.g. 1,2,3 (default %(default)s)"
+    )
+    parser.add_argument("--scene", type=Path, metavar="FILE", help="sensor layout (TOML)")
+    parser.add_argument(
+        "--eeprom-dir",
+        type=Path,
+        default=None,
+        metavar="DIR",
+        help=f"where the controllers keep their EEPROM (default {default_eeprom_dir()})",
+    )
+    parser.add_argument("--time-scale", type=positive, default=1.0, metavar="X", help="speed-up")
+    add_clock_option(parser)
+    parser.add_argument("--control", type=host_port, metavar="HOST:PORT", help="control surface")
 
 
 def add_clock_option(parser: Any) -> None:

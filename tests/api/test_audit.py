@@ -191,6 +191,24 @@ async def test_get_audit_is_for_admins_and_pages_by_seq(audited: Audited):
     assert len(await audited.lines()) == 5
 
 
+async def test_get_audit_shows_the_entries_of_mqtt_and_opcua_which_have_no_query(
+    audited: Audited,
+):
+    # the other faces write to the same record; their entries carry "query": null
+    dcmd = {"time": "2026-01-01T00:00:00Z", "token": "otto", "client": "mqtt", "method": "DCMD",
+            "path": "spBv1.0/plant/DCMD/cmd/gantry", "query": None, "status": 200}  # fmt: skip
+    audited.audit.record(dcmd)
+    opcua = {**dcmd, "client": "opcua", "method": "OPCUA", "path": "axes/x/MoveAbsolute"}
+    audited.audit.record({**opcua, "status": "BadInvalidState"})  # an OPC UA status code
+    await audited.audit.flush()
+    got = await audited.client.get("/api/v1/audit", headers=auth("ada"))
+    assert got.status_code == 200, got.text
+    assert [(e["method"], e["query"], e["status"]) for e in got.json()["entries"]] == [
+        ("DCMD", None, 200),
+        ("OPCUA", None, "BadInvalidState"),
+    ]
+
+
 async def test_since_takes_a_time_and_refuses_anything_else(audited: Audited):
     await audited.client.post("/api/v1/axes/x/move", json={"position": 1}, headers=auth("otto"))
     await audited.audit.flush()
@@ -337,7 +355,7 @@ async def test_a_failing_audit_file_makes_the_gateway_not_ready_until_it_takes_w
         r = await api.client.post("/axes/x/stop")
         assert r.status_code == 200, r.text
         assert (await api.client.get("http://localhost/readyz")).status_code == 200
-        audit: AuditLog = api.app.state.audit
+        audit: AuditLog = api.services.audit
         audit.retry_interval = 0.05
         await audit.flush()
         path.unlink()

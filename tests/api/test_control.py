@@ -44,7 +44,7 @@ async def _changes(api: Api) -> asyncio.Queue[ControlChange]:
 
 
 async def test_admin_local_refuses_motion_and_settings_and_lets_stops_out(api: Api) -> None:
-    feed = api.app.state.feed
+    feed = api.services.feed
     reader = feed.open(backlog=10_000)
     reader.subscribe(["controller:sim.1", "axis:x", "event:control"])
     assert json.loads(await reader.get())["type"] == "snapshot"

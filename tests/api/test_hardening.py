@@ -10,6 +10,7 @@ import pytest
 
 from gateway.api.app import create_app
 from gateway.api.security import AuthConfig, TokenBook, TokenEntry, hash_token
+from gateway.compose import compose
 from gateway.service.roles import Role
 from gateway.service.runtime.runtime import Runtime
 from gateway.service.runtime.simulated import SIM_LOOP, simulated_config
@@ -73,7 +74,7 @@ async def closed() -> AsyncIterator[httpx.AsyncClient]:
     config = config.model_copy(update={"security": security})
     gateway = Runtime(config, transports={SIM_LOOP: PipeTransport(_never)})
     book = TokenBook([TokenEntry("vera", Role.VIEWER, hash_token("tok-vera"))])
-    app = create_app(gateway, auth=AuthConfig(book))
+    app = create_app(compose(gateway), auth=AuthConfig(book))
     transport = httpx.ASGITransport(app=app)
     async with httpx.AsyncClient(transport=transport, base_url=ROOT) as client:
         yield client

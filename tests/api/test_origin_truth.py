@@ -128,7 +128,7 @@ async def test_the_first_reading_after_a_reset_is_not_checked_against_the_old_po
 
 async def test_the_feed_publishes_homed_in_the_axis_change_and_an_origin_event() -> None:
     async with running_app(("1",)) as api:
-        feed = api.app.state.feed
+        feed = api.services.feed
         client = feed.open(backlog=100_000)
         client.subscribe(["axis:x", "event:origin"])
         snapshot = json.loads(await client.get())

@@ -43,7 +43,7 @@ async def test_an_unknown_move_is_resolved_done_when_the_controller_answers_agai
         assert op.error is None
         r = await api.client.get(f"/operations/{ident}")
         assert r.json()["state"] == "done" and r.json()["position"] == start + 20000
-        entries = api.app.state.audit.entries()
+        entries = api.services.audit.entries()
         resolved = [e for e in entries if e.get("event") == "operation_resolved"]
         assert resolved and resolved[-1]["operation"]["id"] == ident, entries[-3:]
         assert resolved[-1]["operation"]["state"] == "done"

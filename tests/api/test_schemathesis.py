@@ -30,6 +30,7 @@ from gateway.api.app import create_app
 from gateway.api.security import AuthConfig
 from gateway.cli.documents import documents
 from gateway.cli.serve import sim_line
+from gateway.compose import compose
 from gateway.service.runtime.runtime import Runtime
 from gateway.service.runtime.simulated import SIM_LOOP, simulated_config
 from gateway.sim.cli import build_loop
@@ -64,7 +65,7 @@ class ServerThread(threading.Thread):
             transports={SIM_LOOP: sim_line(sim)},
             time_scale=SCALE,
         )
-        app = create_app(gateway, auth=AuthConfig(no_auth=True))
+        app = create_app(compose(gateway), auth=AuthConfig(no_auth=True))
         config = uvicorn.Config(app, host="127.0.0.1", port=self.port, log_level="warning")
         self.server = uvicorn.Server(config)
         watcher = asyncio.create_task(self._announce())

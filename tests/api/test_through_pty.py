@@ -16,6 +16,7 @@ import pytest
 from gateway.api.app import create_app
 from gateway.api.security import AuthConfig
 from gateway.cli.serve import open_lines
+from gateway.compose import compose
 from gateway.service.config import load_config
 from gateway.service.runtime.runtime import Runtime
 from tests.support.sim_process import sim_on_pty
@@ -48,7 +49,7 @@ async def client(tmp_path: Path) -> AsyncIterator[httpx.AsyncClient]:
         cell.write_text(CELL.format(port=port))
         config = load_config(cell)
         gateway = Runtime(config, transports=open_lines(config), time_scale=SCALE)
-        app = create_app(gateway, auth=AuthConfig(no_auth=True))
+        app = create_app(compose(gateway), auth=AuthConfig(no_auth=True))
         async with app.router.lifespan_context(app):
             transport = httpx.ASGITransport(app=app)
             base = "http://localhost/api/v1"

@@ -26,8 +26,8 @@ TARGET_MM = 600.0  # axis x: 0.01 mm a pulse -> 60,000 pulses (soft limits -40 .
 
 
 def feed_of(app: FastAPI) -> Feed:
-    """The app's feed (``create_app`` mounts it)."""
-    feed = app.state.feed
+    """The app's feed (``create_app`` serves it from the services it holds)."""
+    feed = app.state.services.feed
     assert isinstance(feed, Feed)
     return feed
 

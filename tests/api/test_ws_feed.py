@@ -2,7 +2,7 @@
 
 The cache behind the server is fed as the loop scheduler feeds it (a decoded ``6{mt}`` reply,
 §10 6), so each test knows exactly which positions the axes reported. Axis ``x`` is
-``sim.1.1`` at 0.01 mm a pulse (gateway/service/simulated.py).
+``sim.1.1`` at 0.01 mm a pulse (gateway/service/runtime/simulated.py).
 """
 
 from __future__ import annotations

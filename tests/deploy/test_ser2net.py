@@ -20,6 +20,7 @@ import pytest
 from gateway.api.app import create_app
 from gateway.api.security import AuthConfig
 from gateway.cli.serve import open_lines
+from gateway.compose import compose
 from gateway.service.config import load_config
 from gateway.service.runtime import Runtime
 from tests.support.serve_process import free_port
@@ -94,7 +95,7 @@ async def client(
             cell.write_text(CELL.format(url=url.format(port=port)))
             config = load_config(cell)
             gateway = Runtime(config, transports=open_lines(config), time_scale=SCALE)
-            app = create_app(gateway, auth=AuthConfig(no_auth=True))
+            app = create_app(compose(gateway), auth=AuthConfig(no_auth=True))
             async with app.router.lifespan_context(app):
                 transport = httpx.ASGITransport(app=app)
                 base = "http://localhost/api/v1"

@@ -83,7 +83,7 @@ def _left(api: Any, book: ConnectionBook, gate: FreshReadGate) -> dict[str, int]
     return {
         "tasks": len(asyncio.all_tasks()),
         "fds": _fds(),
-        "feed clients": api.app.state.feed.clients,
+        "feed clients": api.services.feed.clients,
         "connections": len(book.open),
         "client addresses": len(book.per_client),
         "waiting connections": len(book.waiting),

@@ -30,7 +30,7 @@ async def node_on(api: Api, port: int, *, commands: bool) -> AsyncIterator[EdgeN
         host="127.0.0.1", port=port, group="plant", edge_node="cmd", commands=commands
     )
     auth = api.app.state.auth
-    handler = DeviceCommands(api.app.state.axes, auth.book.lookup, api.app.state.audit.record)
+    handler = DeviceCommands(api.services.axes, auth.book.principal, api.services.audit.record)
     node = EdgeNode(api.runtime, settings, commands=handler)
     task = asyncio.create_task(node.run())
     try:
@@ -47,7 +47,7 @@ def _dcmd(**metrics: bool | str) -> bytes:
 
 
 def _audited(api: Api) -> list[dict[str, object]]:
-    return [e for e in api.app.state.audit.entries(limit=1000) if e["method"] == "DCMD"]
+    return [e for e in api.services.audit.entries(limit=1000) if e["method"] == "DCMD"]
 
 
 async def test_dcmd_is_off_by_default(broker: Broker, central: Central) -> None:

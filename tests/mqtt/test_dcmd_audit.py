@@ -21,9 +21,9 @@ TOPIC = "spBv1.0/plant/DCMD/cmd/gantry"
 
 
 def _handler(api: Any) -> DeviceCommands:
-    audit: AuditLog = api.app.state.audit
-    lookup = api.app.state.auth.book.lookup
-    return DeviceCommands(api.app.state.axes, lookup, audit.record, ahead=audit.write_ahead)
+    audit: AuditLog = api.services.audit
+    lookup = api.app.state.auth.book.principal
+    return DeviceCommands(api.services.axes, lookup, audit.record, ahead=audit.write_ahead)
 
 
 def _entries(path: Path) -> list[dict[str, Any]]:
@@ -38,7 +38,7 @@ async def test_a_flood_of_metrics_is_one_short_line_with_the_sha256_of_the_whole
         whole = json.dumps(dict(metrics), ensure_ascii=False).encode()
         status, _ = await _handler(api).handle(TOPIC, ctl, {"x": "sim.1.1"}, metrics)
         assert status == 401  # no token: refused, and recorded once
-        await api.app.state.audit.flush()
+        await api.services.audit.flush()
     [line] = path.read_bytes().splitlines()
     assert len(line) < 2048  # not 4.8 MiB
     entry = json.loads(line)
@@ -54,7 +54,7 @@ async def test_a_dcmd_stop_is_written_ahead_and_passes_when_the_file_fails(tmp_p
         token = TOKENS["operator"][0]
         stop: dict[str, Value] = {"Command/Token": token, "Axis/x/Stop": True}
         assert (await handler.handle(TOPIC, ctl, {"x": "sim.1.1"}, dict(stop)))[0] == 200
-        await api.app.state.audit.flush()
+        await api.services.audit.flush()
         intent, outcome = _entries(path)
         assert intent["event"] == "intent" and outcome["intent"] == intent["seq"]
         assert token not in path.read_text("utf-8")
@@ -67,7 +67,7 @@ async def test_a_dcmd_stop_is_written_ahead_and_passes_when_the_file_fails(tmp_p
         status, result = await handler.handle(TOPIC, ctl, {"x": "sim.1.1"}, ack)
         assert status == 503 and "AuditUnavailable" in result  # what is not a stop waits
         path.rmdir()
-        await api.app.state.audit.flush()
+        await api.services.audit.flush()
     entries = _entries(path)  # the stop's entries, queued while the file failed
     assert [(e.get("event"), e.get("late"), e.get("status")) for e in entries[:3]] == [
         ("intent", True, None),

@@ -193,7 +193,7 @@ async def test_an_entry_written_ahead_is_on_disk_when_the_call_returns(tmp_path:
 
 
 def test_the_audit_settings_reach_the_record_and_bad_ones_are_named(tmp_path: Path):
-    from gateway.api.app import audit_of
+    from gateway.compose import audit_of
     from gateway.service.audit import FsyncPolicy
     from gateway.service.config import ConfigError, parse_config
     from gateway.service.runtime.simulated import simulated_config

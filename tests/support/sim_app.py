@@ -3,8 +3,9 @@
 ``async with running_app() as api:`` builds the simulated loop of ``serve --simulate``
 (bodies 1, 2, 3; axes x, y, z, theta, gripper, conveyor; ``SCALE`` times faster than real
 time), the gateway on it through ``PipeTransport`` (the gateway's real serial code path minus
-the OS) and the app from ``create_app``; it runs the app's lifespan (loops and polling start),
-waits until the poller has read every controller, and gives an httpx client on it. Without
+the OS), its services from ``compose`` and the app from ``create_app``; it runs the app's
+lifespan (loops and polling start), waits until the poller has read every controller, and
+gives an httpx client on it. Without
 ``roles`` the API runs without authentication; with ``roles=True`` every request needs one of
 ``TOKENS``; ``audit_log`` is the audit log's file; ``config`` replaces the simulated one.
 ``api.heard(body)`` is what the simulated controller heard, from the simulator's own line
@@ -26,6 +27,7 @@ from gateway.api.app import create_app
 from gateway.api.security import AuthConfig, TokenBook, TokenEntry, hash_token
 from gateway.bus.state_types import ControllerState
 from gateway.cli.serve import sim_line
+from gateway.compose import compose
 from gateway.service.config import GatewayConfig
 from gateway.service.events import ServiceEvent
 from gateway.service.leases import Leases
@@ -33,6 +35,7 @@ from gateway.service.operations.registry import Operations
 from gateway.service.roles import Role
 from gateway.service.runtime.runtime import Runtime
 from gateway.service.runtime.simulated import SIM_LOOP, simulated_config
+from gateway.service.services import Services
 from gateway.service.store import StateStore
 from gateway.sim.cli import build_loop
 from gateway.sim.clock import RecordKind, SimClock
@@ -86,18 +89,18 @@ class Api:
     sim: SimLoop
     client: httpx.AsyncClient
     events: list[ServiceEvent]
+    #: what the app serves (``compose``): the very objects MQTT and OPC UA would be given
+    services: Services
 
     @property
     def leases(self) -> Leases:
         """The app's control leases."""
-        leases: Leases = self.app.state.leases
-        return leases
+        return self.services.leases
 
     @property
     def operations(self) -> Operations:
         """The app's operations."""
-        operations: Operations = self.app.state.operations
-        return operations
+        return self.services.operations
 
     @property
     def bodies(self) -> list[str]:
@@ -177,9 +180,11 @@ async def running_app(
     runtime = Runtime(config, transports={SIM_LOOP: line}, time_scale=scale, store=store)
     if roles:
         book = TokenBook(TokenEntry(n, role, hash_token(t)) for n, (t, role) in TOKENS.items())
-        app = create_app(runtime, auth=AuthConfig(book))
+        auth = AuthConfig(book)
     else:
-        app = create_app(runtime, auth=AuthConfig(no_auth=True))
+        auth = AuthConfig(no_auth=True)
+    services = compose(runtime)
+    app = create_app(services, auth=auth)
     if cache_last:
         for scheduler in runtime.schedulers.values():
             scheduler.use_state(runtime.state, first=False)
@@ -191,7 +196,7 @@ async def running_app(
             async with httpx.AsyncClient(
                 transport=transport, base_url=BASE, timeout=WAIT, event_hooks=DECLARE_JSON
             ) as client:
-                api = Api(app, runtime, sim, client, events)
+                api = Api(app, runtime, sim, client, events, services)
                 await api.identified()
                 yield api
     finally:

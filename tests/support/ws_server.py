@@ -158,9 +158,8 @@ async def start_uvicorn(
 def ws_app(feed: Feed, auth: AuthConfig, stats: CountingStats) -> FastAPI:
     """A FastAPI app with the WebSocket router alone (as create_app mounts it)."""
     app = FastAPI()
-    app.include_router(ws.router, prefix="/api/v1")
     install_security(app, auth)
-    ws.install_ws(app, feed)
+    ws.install_ws(app, feed, "/api/v1")
     app.state.metrics = stats
     return app
 

@@ -20,6 +20,7 @@ import pytest
 from gateway.api.app import create_app
 from gateway.api.security import AuthConfig
 from gateway.bus.state import StateCache
+from gateway.compose import compose
 from gateway.service.config import load_config
 from gateway.service.feed import Feed
 from gateway.service.runtime.runtime import Runtime
@@ -58,7 +59,7 @@ def gateway(tmp_path: Path) -> Gateway:
             config = load_config(cell)
             line = SerialLine(port, 9600, sysfs_root=sysfs(port))
             runtime = Runtime(config, transports={"bench": line}, time_scale=SCALE)
-            app = create_app(runtime, auth=AuthConfig(no_auth=True))
+            app = create_app(compose(runtime), auth=AuthConfig(no_auth=True))
             async with app.router.lifespan_context(app):
                 transport = httpx.ASGITransport(app=app)
                 base = "http://localhost"
@@ -121,7 +122,7 @@ async def test_a_sixteen_ms_timer_shows_in_the_view_the_metrics_and_the_log(
 
 
 def test_the_loop_topic_of_the_websocket_feed_carries_the_adapter() -> None:
-    """The feed takes the report from the loop's line (``loop_adapter``, as create_app wires
+    """The feed takes the report from the loop's line (``loop_adapter``, as compose wires
     it): a subscriber's snapshot of the loop shows the slow timer, in the published schema."""
     report = AdapterReport(tty="ttyUSB0", low_latency=False, latency_timer_ms=16)
     topology = Topology(simulated_config(("1",)))

@@ -108,7 +108,8 @@ class LoopSource(Protocol):
 
 
 class MetricsSource(Protocol):
-    """What the metrics and ``/readyz`` read of the gateway (``gateway.service.Runtime``)."""
+    """What the metrics and ``/readyz`` read of the gateway
+    (``gateway.service.runtime.runtime.Runtime``)."""
 
     @property
     def schedulers(self) -> Mapping[str, LoopSource]:

@@ -96,8 +96,8 @@ def descendants(pid: int) -> list[int]:
 
 
 def process_exposition(state: Any = None) -> str:
-    """The families of the module docstring; ``state``: the app's ``state`` (its ``audit``
-    and ``feed``, when it has them)."""
+    """The families of the module docstring; ``state``: what holds the audit record and the
+    feed (``audit``, ``feed``: the app's services), when there is one."""
     out = Exposition()
     me = os.getpid()
     figures = [(f, "api") for f in [read_process(me)] if f is not None]

@@ -18,7 +18,7 @@ store in memory is bounded: ``capacity`` keys (``MEMORY_KEYS``, oldest dropped f
 its response) for ``ttl`` seconds; the state store below it answers every key for ``ttl``
 seconds (``clock``: seconds since the epoch), so memory holds the recent retries only.
 
-Keys outlive the process: they are kept in the state store (``gateway.store``) too. The key of
+Keys outlive the process: they are kept in the state store (``gateway.service.store``). The key of
 a request that starts an operation is written with the operation before its first frame goes
 out (``service.store.request_key`` tells the operation which key it serves), and the response
 is written before it is sent. A retry that finds no key in memory looks there: a stored

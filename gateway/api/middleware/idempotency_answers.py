@@ -11,15 +11,15 @@ from __future__ import annotations
 from datetime import UTC, datetime
 
 from fastapi.responses import JSONResponse
-from starlette.requests import Request
+from starlette.requests import HTTPConnection, Request
 from starlette.routing import NoMatchFound
 from starlette.types import Receive, Scope, Send
 
+from gateway.api.app_services import operations_of
 from gateway.api.motion_problems import motion_problem
 from gateway.api.problems import Problem, problem_response, problem_type
 from gateway.errors import NotFoundError
 from gateway.service.operations import history
-from gateway.service.operations.registry import Operations
 from gateway.service.operations.types import OperationState
 
 __all__ = [
@@ -41,7 +41,7 @@ UNRECORDED_RETRY_AFTER = 5
 
 async def answer_operation(scope: Scope, receive: Receive, send: Send, ident: str) -> None:
     """The operation a key's request started before the process stopped, as it stands."""
-    operations: Operations = scope["app"].state.operations
+    operations = operations_of(HTTPConnection(scope))
     try:
         op = await history.find(operations, ident)
     except NotFoundError:

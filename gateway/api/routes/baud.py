@@ -5,12 +5,13 @@ from __future__ import annotations
 
 from fastapi import APIRouter, Request
 
+from gateway.api.app_services import baud_of
 from gateway.api.audit import audit_note
 from gateway.api.problems import PROBLEM_RESPONSES
 from gateway.api.routes.bodies import BaudRequest
 from gateway.api.routes.deps import Admin
 from gateway.api.routes.loops import Loop
-from gateway.service.baud import BaudChange, BaudChanger
+from gateway.service.baud import BaudChange
 
 __all__ = ["router"]
 
@@ -23,8 +24,7 @@ async def post_loop_baud(loop: Loop, body: BaudRequest, request: Request, _: Adm
     the port at it and read each controller there; when one does not answer, the others go
     back to the old rate. 200 with each controller's result (``outcome`` done, rolled_back or
     failed). Change ``loops[].baud`` in the configuration file afterwards."""
-    changer: BaudChanger = request.app.state.baud
-    result = await changer.change(loop, body.baud)
+    result = await baud_of(request).change(loop, body.baud)
     frames = [f for c in result.controllers for f in c.frames]
     audit_note(request, bytes_sent=frames, result=result.outcome)
     return result

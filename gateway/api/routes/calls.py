@@ -15,6 +15,7 @@ from typing import Annotated
 from fastapi import Depends, Query, Request, Response
 from starlette.routing import NoMatchFound
 
+from gateway.api.app_services import axes_of, controllers_of
 from gateway.api.audit import audit_note
 from gateway.api.motion_problems import motion_problem
 from gateway.api.routes.deps import Admin, Operator, Service, note_sent
@@ -49,18 +50,6 @@ Timeout = Annotated[
         description="seconds to wait with wait=true (then 202: still running)",
     ),
 ]
-
-
-def controllers_of(request: Request) -> ControllerService:
-    """The controller service of the app (``app.state.controllers``)."""
-    service: ControllerService = request.app.state.controllers
-    return service
-
-
-def axes_of(request: Request) -> AxisService:
-    """The axis service of the app (``app.state.axes``)."""
-    service: AxisService = request.app.state.axes
-    return service
 
 
 async def _axes(request: Request) -> AxisService:

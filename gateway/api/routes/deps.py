@@ -1,7 +1,8 @@
 """The routes' dependencies in one place: the roles a route needs, the services the app holds,
 the controller path type, and the audit note of what was sent.
 
-``controllers(request)`` is the ``ControllerService`` the app holds (``app.state.controllers``).
+``controllers(request)`` is the ``ControllerService`` the app holds and ``stops(request)`` its
+stop-all, both through the app's one getter of each service (``gateway.api.app_services``).
 """
 
 from __future__ import annotations
@@ -10,6 +11,7 @@ from typing import Annotated
 
 from fastapi import Depends, Path, Request
 
+from gateway.api.app_services import controllers_of, stops_of
 from gateway.api.audit import audit_note
 from gateway.api.problems import ApiProblem, Problem, problem_type
 from gateway.api.security import Principal, require
@@ -39,8 +41,7 @@ Admin = Annotated[Principal, Depends(require(Role.ADMIN))]
 
 async def controllers(request: Request) -> ControllerService:
     """The controller service of the app."""
-    service: ControllerService = request.app.state.controllers
-    return service
+    return controllers_of(request)
 
 
 Service = Annotated[ControllerService, Depends(controllers)]
@@ -48,8 +49,7 @@ Service = Annotated[ControllerService, Depends(controllers)]
 
 async def stops(request: Request) -> StopAll:
     """The stop-all of the app (controllers and loops)."""
-    service: StopAll = request.app.state.stops
-    return service
+    return stops_of(request)
 
 
 Stops = Annotated[StopAll, Depends(stops)]

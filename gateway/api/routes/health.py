@@ -17,6 +17,8 @@ from fastapi import APIRouter, FastAPI, Request
 from fastapi.responses import Response
 from pydantic import BaseModel
 
+from gateway.api.app_services import held_services
+from gateway.api.audit_log import audit_exposition
 from gateway.api.metrics.collector import (
     CONTENT_TYPE,
     HttpMetricsMiddleware,
@@ -81,8 +83,8 @@ async def readyz(request: Request) -> Any:
             for name, loop in sorted(runtime.schedulers.items())
             if loop.state is not LinkState.UP
         ]
-    audit = getattr(request.app.state, "audit", None)
-    audit_error = getattr(audit, "last_error", None)
+    services = held_services(request)
+    audit_error = None if services is None else services.audit.last_error
     if runtime is not None and runtime.ready() and not down and audit_error is None:
         return Readiness(loops=states)
     causes = []
@@ -111,10 +113,10 @@ async def readyz(request: Request) -> Any:
 async def metrics(request: Request) -> Response:
     """Prometheus text exposition format 0.0.4."""
     text = _metrics(request).render()
-    audit = getattr(request.app.state, "audit", None)
-    if audit is not None:
-        text += audit.exposition()
-    text += process_exposition(request.app.state)
+    services = held_services(request)
+    if services is not None:
+        text += audit_exposition(services.audit)
+    text += process_exposition(services)
     return Response(text, media_type=CONTENT_TYPE)
 
 
@@ -137,4 +139,3 @@ def install_health_and_metrics(
     app.add_middleware(HttpMetricsMiddleware, metrics=metrics)
     app.include_router(router)
     return metrics
-

@@ -14,6 +14,7 @@ from typing import Annotated
 from fastapi import APIRouter, Body, Depends, Path, Request
 from pydantic import BaseModel, Field
 
+from gateway.api.app_services import leases_of
 from gateway.api.audit import audit_note
 from gateway.api.routes.bodies import LeaseRequest
 from gateway.api.routes.deps import Operator, Viewer
@@ -47,8 +48,7 @@ def lease_view(leases: Leases, resource: str, lease: Lease | None) -> LeaseView:
 
 
 async def _leases(request: Request) -> Leases:
-    leases: Leases = request.app.state.leases
-    return leases
+    return leases_of(request)
 
 
 # Module level: the routes below are closures, and their annotations are resolved here.

@@ -12,6 +12,7 @@ from typing import Annotated
 
 from fastapi import APIRouter, Depends, Path, Query, Request
 
+from gateway.api.app_services import operations_of
 from gateway.api.problems import PROBLEM_RESPONSES
 from gateway.api.routes.deps import Viewer
 from gateway.errors import NotFoundError
@@ -25,8 +26,7 @@ router = APIRouter(tags=["operations"], responses=PROBLEM_RESPONSES)
 
 
 async def _operations(request: Request) -> Operations:
-    operations: Operations = request.app.state.operations
-    return operations
+    return operations_of(request)
 
 
 Ops = Annotated[Operations, Depends(_operations)]

@@ -36,7 +36,7 @@ import logging
 import math
 from typing import Any, Protocol
 
-from fastapi import APIRouter, FastAPI, WebSocket
+from fastapi import FastAPI, WebSocket
 from pydantic import ValidationError
 
 from gateway.api.auth_failures import failures_of
@@ -57,7 +57,6 @@ __all__ = [
     "WS_MESSAGE_LIMIT",
     "WsCounter",
     "install_ws",
-    "router",
     "serve_client",
     "uvicorn_ws_options",
 ]
@@ -68,8 +67,6 @@ log = logging.getLogger("gateway.api")
 WS_MESSAGE_LIMIT = 64 * 1024
 #: Seconds a close may wait for a socket that does not drain (a client that stopped reading).
 CLOSE_TIMEOUT = 10.0
-
-router = APIRouter(tags=["websocket"])
 
 
 class WsCounter(Protocol):
@@ -98,17 +95,14 @@ def uvicorn_ws_options(settings: WsSettings) -> dict[str, Any]:
     }
 
 
-def install_ws(app: FastAPI, feed: Feed) -> None:
-    """Put ``feed`` where the endpoint finds it (``app.state.feed``); mount ``router`` with
-    ``prefix="/api/v1"``."""
-    app.state.feed = feed
+def install_ws(app: FastAPI, feed: Feed, prefix: str = "/api/v1") -> None:
+    """Serve ``feed`` at ``{prefix}/ws``: the endpoint holds the feed it is given."""
 
+    async def websocket_feed(websocket: WebSocket) -> None:
+        """Subscribe to axes, controllers, loops and events (see ``openapi/websocket.json``)."""
+        await serve_client(websocket, feed, stats=_stats(websocket.app.state))
 
-@router.websocket("/ws")
-async def websocket_feed(websocket: WebSocket) -> None:
-    """Subscribe to axes, controllers, loops and events (see ``openapi/websocket.json``)."""
-    state = websocket.app.state
-    await serve_client(websocket, state.feed, stats=_stats(state))
+    app.add_api_websocket_route(f"{prefix}/ws", websocket_feed)
 
 
 def _stats(state: Any) -> WsCounter | None:

@@ -4,7 +4,7 @@ Client messages are validated with ``ClientMessage`` (a message that does not fi
 with an ``error`` naming the field and the rule). Server messages are written by the feed
 (``gateway.service.feed``) and the endpoint (``api.ws.endpoint``); ``ServerMessage`` documents
 them, and the tests validate every message a server sent against ``ws_schema()``, which
-``rc233-gateway openapi`` writes to ``openapi/ws.json``.
+``rc233-gateway openapi`` writes to ``openapi/websocket.json``.
 """
 
 from __future__ import annotations
