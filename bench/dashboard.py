@@ -74,7 +74,7 @@ async def serve() -> None:
     from gateway.api.ws import endpoint as ws
     from gateway.bus.events import ReplyObserved
     from gateway.compose import compose
-    from gateway.protocol.registry import parse
+    from gateway.protocol.command_text import parse
     from gateway.service.runtime.runtime import Runtime
     from gateway.service.runtime.simulated import SIM_LOOP, simulated_config
     from gateway.sim.cli import build_loop

@@ -15,10 +15,10 @@ from gateway.api.app_services import services_of
 from gateway.mqtt.commands import DeviceCommands
 from gateway.opcua.face import OpcUaFace
 from gateway.opcua.methods import StatusRefusal
-from gateway.opcua.status import INVALID_STATE
+from gateway.opcua.status_codes import INVALID_STATE
 from gateway.opcua.users import _CALLER
 from gateway.service.config import OpcUaSettings
-from tests.api.sim_app import TOKENS, Api, auth, running_app
+from tests.support.sim_app import TOKENS, Api, auth, running_app
 
 TOPIC = "spBv1.0/plant/DCMD/cmd/gantry"
 

@@ -12,28 +12,22 @@ from __future__ import annotations
 from starlette.applications import Starlette
 from starlette.requests import HTTPConnection
 
-from gateway.service.audit import AuditRecord
 from gateway.service.axes import AxisService
 from gateway.service.baud import BaudChanger
 from gateway.service.controllers import ControllerService
-from gateway.service.feed import Feed
 from gateway.service.leases import Leases
 from gateway.service.operations import Operations
-from gateway.service.runtime.runtime import Runtime
 from gateway.service.services import Services
 from gateway.service.stops import StopAll
 
 __all__ = [
-    "audit_of",
     "axes_of",
     "baud_of",
     "controllers_of",
-    "feed_of",
     "held_services",
     "hold_services",
     "leases_of",
     "operations_of",
-    "runtime_of",
     "services_of",
     "stops_of",
 ]
@@ -56,16 +50,6 @@ def services_of(conn: HTTPConnection) -> Services:
     services = held_services(conn)
     assert services is not None, "the app holds no services (hold_services was not called)"
     return services
-
-
-def runtime_of(conn: HTTPConnection) -> Runtime:
-    """The runtime: topology, state cache, loops."""
-    return services_of(conn).runtime
-
-
-def audit_of(conn: HTTPConnection) -> AuditRecord:
-    """The audit record."""
-    return services_of(conn).audit
 
 
 def leases_of(conn: HTTPConnection) -> Leases:
@@ -96,8 +80,3 @@ def stops_of(conn: HTTPConnection) -> StopAll:
 def baud_of(conn: HTTPConnection) -> BaudChanger:
     """The baud changer."""
     return services_of(conn).baud
-
-
-def feed_of(conn: HTTPConnection) -> Feed:
-    """The WebSocket feed."""
-    return services_of(conn).feed

@@ -13,11 +13,9 @@ import json
 from typing import Any
 
 import pytest
-from fastapi import FastAPI
 from websockets.asyncio.client import connect
 
 from gateway.api.app import API_PREFIX
-from gateway.service.feed import Feed
 from tests.support.sim_app import running_app
 from tests.support.ws_server import WsClient, start_uvicorn
 
@@ -25,19 +23,12 @@ CLIENTS = 200
 TARGET_MM = 600.0  # axis x: 0.01 mm a pulse -> 60,000 pulses (soft limits -40 .. 940 mm)
 
 
-def feed_of(app: FastAPI) -> Feed:
-    """The app's feed (``create_app`` serves it from the services it holds)."""
-    feed = app.state.services.feed
-    assert isinstance(feed, Feed)
-    return feed
-
-
 @pytest.mark.slow
 async def test_200_clients_receive_every_position_of_a_move_in_order() -> None:
     # Time scale 5: the 12 s move lasts 2.4 s here, long enough for the 50 ms polls to be
     # seen on the way even on a loaded host.
     async with running_app(("1",), scale=5.0) as api:
-        feed = feed_of(api.app)
+        feed = api.services.feed
         server, port = await start_uvicorn(api.app)
         clients: list[WsClient] = []
         try:
