@@ -56,7 +56,7 @@ from gateway.service.controllers.service import ControllerService
 from gateway.service.events import ServiceEvent
 from gateway.service.feed import Feed
 from gateway.service.leases import Leases
-from gateway.service.operations.registry import Operations
+from gateway.service.operations.book import Operations
 from gateway.service.runtime.runtime import Runtime
 from gateway.service.stops import StopAll
 

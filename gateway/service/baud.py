@@ -230,9 +230,12 @@ class BaudChanger:
         self, scheduler: LineScheduler, ref: ControllerRef, baud: int, frames: dict[str, list[str]]
     ) -> None:
         command = cmd.set_baud_rate(BAUD_CODES[baud])
+        # As asked until the result tells what was written (a loop down before it says none).
         frames[ref.id].append(f"{ref.series.value}{ref.body}{command.wire()}")
         with contextlib.suppress(BusError):  # whether it took is what the next read tells
             result = await scheduler.submit(ref.body, command)
+            if result.results and result.results[-1].frame:
+                frames[ref.id][-1] = result.results[-1].written
             if result.outcome is Outcome.NOT_DONE and result.results:
                 frames[ref.id][-1] += f" ({result.results[-1].kind.value})"
 

@@ -19,7 +19,7 @@ from gateway.api.motion_problems import motion_problem
 from gateway.api.problems import Problem, problem_response, problem_type
 from gateway.errors import NotFoundError
 from gateway.service.operations import history
-from gateway.service.operations.registry import Operations
+from gateway.service.operations.book import Operations
 from gateway.service.operations.types import OperationState
 
 __all__ = [
