@@ -98,13 +98,13 @@ class BaudChanger:
             rates = ", ".join(str(r) for r in BAUD_RATES)
             raise InvalidInputError(
                 f"{baud} bps is not a rate of the RC-233",
-                field="body.baud",
+                field="baud",
                 rule=f"one of {rates} (§10 ES)",
             )
         if baud == old:
             raise InvalidInputError(
                 f"loop {ref.name} already runs at {baud} bps",
-                field="body.baud",
+                field="baud",
                 rule="a rate other than the loop's current one",
             )
         if ref.name in self._busy:

@@ -67,7 +67,7 @@ class LimitJogs:
             raise InvalidInputError(
                 f"axis {ref.id} is at {current} pulses, at or beyond its limit {limit} in the "
                 f"{asked.direction.value} direction; nothing was sent",
-                field="body.direction",
+                field="direction",
                 rule=JOG_RULE,
             )
         check_target(ref, limit, fmt)

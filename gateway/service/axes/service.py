@@ -142,25 +142,25 @@ class AxisService:
         ref = self.ref(ident)
         self._may_act(ref, holder)
         if unit is Unit.USER:
-            value = ref.to_pulses(position, "body.position")
+            value = ref.to_pulses(position, "position")
         elif float(position).is_integer():
             value = int(position)
         else:
             raise InvalidInputError(
                 f"{position} is not a whole number of pulses",
-                field="body.position",
+                field="position",
                 rule="a position in pulses is a whole number",
             )
         if abs(value) > UNSIGNED_MAX:  # no counter holds it: refused before anything is read
             raise InvalidInputError(
                 f"{position} is {value} pulses, beyond the 24-bit position counter",
-                field="body.position",
+                field="position",
                 rule=f"at most {UNSIGNED_MAX} pulses either way (§10 EP)",
             )
         if relative and value == 0:
             raise InvalidInputError(
                 "a relative move of 0 pulses",
-                field="body.position",
+                field="position",
                 rule="|distance| >= 1 pulse",
             )
         fmt = await self.formats.get(ref.loop, ref.body)
@@ -211,7 +211,7 @@ class AxisService:
                 raise ConflictError(
                     f"the jog of {ref.id} runs as a move to its soft limit; its speed cannot "
                     "change while it runs (H, L act on 7/8 only, §10 H, L): stop it first",
-                    field="body.speed",
+                    field="speed",
                 )
             # The same jog: only its speed changes (§10 H, L work while turning); a setting
             # from the network, refused in local control like any other.
