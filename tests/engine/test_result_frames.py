@@ -4,8 +4,8 @@ with it: with SUM1 on (§10 SUM), each with its checksum, as the simulator heard
 from __future__ import annotations
 
 from gateway.bus.requests import Outcome
+from gateway.protocol.command_text import parse
 from gateway.protocol.framing import checksum
-from gateway.protocol.registry import parse
 from tests.support.bus_rig import MakeBus
 from tests.support.engine_rig import Attach
 

@@ -19,7 +19,7 @@ from gateway.service.baud import BaudChanger
 from gateway.service.controllers import ControllerService
 from gateway.service.operations.terms import Direction, Unit
 from gateway.service.runtime.simulated import SIM_LOOP
-from tests.api.sim_app import json_of, running_app
+from tests.support.sim_app import json_of, running_app
 
 
 async def test_the_axis_service_names_its_position_argument() -> None:

@@ -15,7 +15,7 @@ import pytest
 from gateway.service.operations.durable import to_record
 from gateway.service.store import StateStore
 from gateway.service.store.records import insert_operation
-from tests.api.sim_app import json_of, running_app
+from tests.support.sim_app import json_of, running_app
 
 #: The record text the state store held before (``json.dumps`` of the record dict), and the
 #: view clients were answered with then: one operation of each kind, ended. The times are
