@@ -30,7 +30,7 @@ from gateway.bus.events import BusEvent, ReplyObserved
 from gateway.bus.scheduler import LoopScheduler
 from gateway.protocol.command_text import parse
 from gateway.protocol.framing import BAUD_RATES
-from gateway.service.operations.registry import Operations
+from gateway.service.operations.book import Operations
 from gateway.sim.cli import build_loop
 from gateway.sim.clock import SimClock
 from gateway.sim.faults import Faults

@@ -43,6 +43,7 @@ from pydantic import BaseModel, ConfigDict
 from starlette.exceptions import HTTPException
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
+from gateway.api.service_fields import http_field
 from gateway.errors import (
     ConflictError,
     DeviceError,
@@ -304,6 +305,9 @@ def _internal(request_path: str | None, exc: BaseException) -> Problem:
 
 
 async def _on_gateway_error(request: Request, exc: Exception) -> Response:
+    if isinstance(exc, InvalidInputError | ConflictError):
+        # the service names its own argument; the route knows the HTTP field it came from
+        exc.field = http_field(request, exc, exc.field)
     mapped = _problem_for(exc)
     if mapped is None:
         return problem_response(_internal(request.url.path, exc), request)

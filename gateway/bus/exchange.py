@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import asyncio
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from gateway.bus.config import LoopConfig
 from gateway.bus.counters import Counters
@@ -83,6 +83,7 @@ class Sent:
     value: ReplyValue | None = None
     late: bool = False
     note: str = ""
+    frame: bytes = b""  # the bytes written, CR and any checksum included
 
 
 class LineExchange:
@@ -281,7 +282,7 @@ class LineExchange:
             self.health.heard(body)
         elif sent.kind is ReplyKind.TIMEOUT:
             self.health.timed_out(body)
-        return sent
+        return replace(sent, frame=frame)
 
     def _classify(
         self,

@@ -17,6 +17,7 @@ from enum import IntEnum, StrEnum
 from types import MappingProxyType
 
 from gateway.errors import GatewayError
+from gateway.protocol.framing import CR, from_wire
 from gateway.protocol.models import Command
 from gateway.protocol.replies import ReplyValue
 
@@ -78,6 +79,14 @@ class CommandResult:
     late: bool = False  # the reply came after its time-out (and was still this command's)
     seen: Mapping[str, object] = field(default_factory=lambda: MappingProxyType({}))
     note: str = ""
+    #: the command's frame as written to the line (its last attempt), CR and any SUM1
+    #: checksum included; empty when it was never sent
+    frame: bytes = b""
+
+    @property
+    def written(self) -> str:
+        """``frame`` as text without its CR (``$1OH4000``; '' when never sent)."""
+        return from_wire(self.frame.removesuffix(CR))
 
 
 @dataclass(frozen=True)
@@ -107,6 +116,13 @@ class TransactionResult:
     def ok(self) -> bool:
         """True when every command is DONE."""
         return self.outcome is Outcome.DONE
+
+    @property
+    def frames(self) -> list[str]:
+        """The caller's commands as they were written (``$1OH4000``, with its checksum under
+        SUM1; no CR), in order; the scheduler's own frames (``F``, read-backs) are not among
+        them, nor a command never sent."""
+        return [r.written for r in self.results if r.frame]
 
     @property
     def value(self) -> ReplyValue | None:

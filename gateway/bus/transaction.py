@@ -16,6 +16,8 @@ a stop to its own controller has gone, the transaction sends no more commands th
 reads): the stop must not be undone by the move queued behind it.
 
 The first command that is not DONE ends the transaction; the rest are reported SKIPPED.
+Each command's result carries its frame as it was written (``CommandResult.frame``, checksum
+included), which is what clients and the audit are shown as sent.
 """
 
 from __future__ import annotations
@@ -177,6 +179,7 @@ class TransactionRunner:
             st.mark = core.eeprom_done.get(body, 0)
             sent = await core.send(body, command, self.motor)
             st.attempts += 1
+            st.frame = sent.frame
             if sent.kind is ReplyKind.NOT_ACCEPTED:
                 if is_motion(command):
                     # On a noisy line a '>' one bit off reads '?' (0x3E, 0x3F): a motion is
@@ -322,6 +325,7 @@ class _Step:
     before_pos: int | None = None
     before_value: ReplyValue | None = None
     seen: dict[str, Any] = field(default_factory=dict)
+    frame: bytes = b""  # as its last attempt was written (the result's ``frame``)
 
     def result(
         self,
@@ -334,5 +338,6 @@ class _Step:
     ) -> CommandResult:
         """The command's result so far."""
         return CommandResult(
-            self.command, kind, outcome, value, self.attempts, late, dict(self.seen), note
-        )
+            self.command, kind, outcome, value, self.attempts, late, dict(self.seen), note,
+            self.frame,
+        )  # fmt: skip

@@ -45,20 +45,24 @@ async def upload(
         if sent.kind is not ReplyKind.NOT_ACCEPTED or not retries.after_nak():
             break
     seen["i_reply"] = sent.kind
+    frame = sent.frame  # I as written; the program text is not a command frame
     if sent.kind in (ReplyKind.NOT_ACCEPTED, ReplyKind.REJECTED):
         return CommandResult(
-            command, sent.kind, Outcome.NOT_DONE, attempts=attempts, seen=seen, note=sent.note
-        )
+            command, sent.kind, Outcome.NOT_DONE, attempts=attempts, seen=seen, note=sent.note,
+            frame=frame,
+        )  # fmt: skip
     text_kind = await _send_text(core, body, program)
     seen["text_reply"] = text_kind
     if text_kind is ReplyKind.ACCEPTED:
         return CommandResult(
-            command, sent.kind, Outcome.DONE, attempts=attempts, late=sent.late, seen=seen
-        )
+            command, sent.kind, Outcome.DONE, attempts=attempts, late=sent.late, seen=seen,
+            frame=frame,
+        )  # fmt: skip
     if text_kind is ReplyKind.REJECTED:
         return CommandResult(
-            command, text_kind, Outcome.NOT_DONE, attempts=attempts, seen=seen, note="refused"
-        )
+            command, text_kind, Outcome.NOT_DONE, attempts=attempts, seen=seen, note="refused",
+            frame=frame,
+        )  # fmt: skip
     core.counters.verifications += 1
     stored = await query(commands.program_text())
     seen["read_back"] = stored
@@ -67,7 +71,9 @@ async def upload(
     else:
         outcome = Outcome.DONE if stored == program.text() else Outcome.NOT_DONE
     note = "reply lost; read back IR"
-    return CommandResult(command, text_kind, outcome, attempts=attempts, seen=seen, note=note)
+    return CommandResult(
+        command, text_kind, outcome, attempts=attempts, seen=seen, note=note, frame=frame
+    )
 
 
 async def _send_text(core: LineExchange, body: str, program: Program) -> ReplyKind:

@@ -98,13 +98,13 @@ class BaudChanger:
             rates = ", ".join(str(r) for r in BAUD_RATES)
             raise InvalidInputError(
                 f"{baud} bps is not a rate of the RC-233",
-                field="body.baud",
+                field="baud",
                 rule=f"one of {rates} (§10 ES)",
             )
         if baud == old:
             raise InvalidInputError(
                 f"loop {ref.name} already runs at {baud} bps",
-                field="body.baud",
+                field="baud",
                 rule="a rate other than the loop's current one",
             )
         if ref.name in self._busy:
@@ -230,9 +230,12 @@ class BaudChanger:
         self, scheduler: LineScheduler, ref: ControllerRef, baud: int, frames: dict[str, list[str]]
     ) -> None:
         command = cmd.set_baud_rate(BAUD_CODES[baud])
+        # As asked until the result tells what was written (a loop down before it says none).
         frames[ref.id].append(f"{ref.series.value}{ref.body}{command.wire()}")
         with contextlib.suppress(BusError):  # whether it took is what the next read tells
             result = await scheduler.submit(ref.body, command)
+            if result.results and result.results[-1].frame:
+                frames[ref.id][-1] = result.results[-1].written
             if result.outcome is Outcome.NOT_DONE and result.results:
                 frames[ref.id][-1] += f" ({result.results[-1].kind.value})"
 

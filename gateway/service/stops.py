@@ -23,7 +23,7 @@ from pydantic import BaseModel, Field
 from gateway.bus.requests import BusError, LoopDown, Outcome
 from gateway.protocol import commands as cmd
 from gateway.service.operations.terms import StopMode
-from gateway.service.operations.types import Operation, frames_of
+from gateway.service.operations.types import Operation
 from gateway.service.runtime.runtime import Runtime
 from gateway.service.topology import ControllerRef
 
@@ -103,7 +103,7 @@ class StopAll:
         return stop.model_copy(
             update={
                 "outcome": result.outcome,
-                "frames": frames_of(result, ref.series.value),
+                "frames": result.frames,
                 "error": error,
             }
         )

@@ -16,6 +16,8 @@ import pytest
 from gateway.errors import ConflictError
 from gateway.service.events import EventKind, ServiceEvent
 from gateway.service.operations import durable
+from gateway.service.operations.asked import StepAsked
+from gateway.service.operations.terms import Direction
 from gateway.service.operations.types import OperationState
 from gateway.sim.control import Controls
 from tests.support.sim_app import Api, json_of, running_app
@@ -181,7 +183,11 @@ async def test_a_jog_whose_stop_is_not_taken_after_the_outage_stays_unknown(
         # (Over HTTP the dead loop answers 503 first, and after the link-up the controller off.)
         with pytest.raises(ConflictError, match=ident):
             await api.operations.run(
-                api.runtime.topology.axis("y"), "move", {}, (), motor=2, holder="test"
+                api.runtime.topology.axis("y"),
+                StepAsked(direction=Direction.CW),
+                (),
+                motor=2,
+                holder="test",
             )
         Controls(api.sim).power("1", False)
         api.sim.act(lambda now: api.sim.set_cut(False, now))

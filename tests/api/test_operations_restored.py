@@ -14,6 +14,7 @@ from typing import Any
 import pytest
 
 from gateway.service.operations import durable
+from gateway.service.operations.asked import asked_of
 from gateway.service.operations.durable import to_record
 from gateway.service.operations.types import Operation, OperationState
 from gateway.service.runtime.simulated import simulated_config
@@ -29,8 +30,9 @@ async def _left_behind(tmp_path: Path, number: int, **fields: Any) -> StateStore
     """A state directory holding operation ``op-<number>`` as a killed gateway left it."""
     store = await StateStore.open(tmp_path / "state")
     axis = Topology(simulated_config()).axis(fields.pop("axis", "x"))
-    op = Operation(id=f"op-{number}-00000001", axis=axis, motor=axis.motor, holder="mes",
-                   commands=(), **fields)  # fmt: skip
+    asked = asked_of(fields.pop("kind"), fields.pop("request"))
+    op = Operation(id=f"op-{number}-00000001", axis=axis, asked=asked, motor=axis.motor,
+                   holder="mes", commands=(), **fields)  # fmt: skip
     record = to_record(op)
     await store.run(lambda c: insert_operation(c, number, record, None))
     await store.close()

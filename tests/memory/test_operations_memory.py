@@ -6,7 +6,7 @@ import asyncio
 import gc
 import weakref
 
-from gateway.service.operations.registry import MEMORY
+from gateway.service.operations.book import MEMORY
 from tests.support.sim_app import json_of, running_app
 
 

@@ -31,7 +31,7 @@ from gateway.compose import compose
 from gateway.service.config import GatewayConfig
 from gateway.service.events import ServiceEvent
 from gateway.service.leases import Leases
-from gateway.service.operations.registry import Operations
+from gateway.service.operations.book import Operations
 from gateway.service.roles import Role
 from gateway.service.runtime.runtime import Runtime
 from gateway.service.runtime.simulated import SIM_LOOP, simulated_config

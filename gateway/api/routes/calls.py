@@ -23,7 +23,7 @@ from gateway.api.security import Principal
 from gateway.service.axes import AxisService
 from gateway.service.controllers import ControllerService
 from gateway.service.controllers.replies import CommandResponse
-from gateway.service.operations.registry import Operation
+from gateway.service.operations.book import Operation
 from gateway.service.operations.types import OperationState, OperationView
 from gateway.service.topology import ControllerRef
 

@@ -17,7 +17,7 @@ from gateway.api.problems import PROBLEM_RESPONSES
 from gateway.api.routes.deps import Viewer
 from gateway.errors import NotFoundError
 from gateway.service.operations import history
-from gateway.service.operations.registry import Operations
+from gateway.service.operations.book import Operations
 from gateway.service.operations.types import OperationState, OperationView
 
 __all__ = ["router"]

@@ -17,7 +17,6 @@ from __future__ import annotations
 import asyncio
 import logging
 from collections.abc import Awaitable, Callable
-from typing import Any
 
 from gateway.bus.requests import TransactionResult
 from gateway.errors import DeviceError, InvalidInputError
@@ -25,7 +24,8 @@ from gateway.protocol import commands as cmd
 from gateway.protocol.models import Command
 from gateway.protocol.params import PositionFormat
 from gateway.service.axes.position_format import check_target, position_data
-from gateway.service.operations.registry import Operation
+from gateway.service.operations.asked import JogAsked
+from gateway.service.operations.book import Operation
 from gateway.service.operations.terms import Direction, JogSpeed
 from gateway.service.topology import AxisRef
 
@@ -55,32 +55,32 @@ class LimitJogs:
     async def start(
         self,
         ref: AxisRef,
-        request: dict[str, Any],
+        asked: JogAsked,
         current: int,
         limit: int,
         fmt: PositionFormat,
         holder: str,
     ) -> Operation:
-        """The jog of ``request`` on ``ref`` (at ``current`` pulses) as a move to ``limit``."""
-        cw = request["direction"] == Direction.CW.value
+        """The jog ``asked`` on ``ref`` (at ``current`` pulses) as a move to ``limit``."""
+        cw = asked.direction is Direction.CW
         if (cw and current >= limit) or (not cw and current <= limit):
             raise InvalidInputError(
                 f"axis {ref.id} is at {current} pulses, at or beyond its limit {limit} in the "
-                f"{request['direction']} direction; nothing was sent",
-                field="body.direction",
+                f"{asked.direction.value} direction; nothing was sent",
+                field="direction",
                 rule=JOG_RULE,
             )
         check_target(ref, limit, fmt)
         moves: list[Command] = [position_data(limit, fmt), cmd.move_to_position_data()]
-        if request["speed"] == JogSpeed.HIGH.value:
-            return await self._run(ref, "jog", request, moves, target=limit, holder=holder)
+        if asked.speed is JogSpeed.HIGH:
+            return await self._run(ref, asked, moves, target=limit, holder=holder)
         result = await self._submit(ref, [cmd.speed("OH"), cmd.speed("OL")], motor=ref.motor)
         oh, ol = (r.value for r in result.results[-2:])
         if not isinstance(oh, int) or not isinstance(ol, int):
             raise DeviceError(f"OH and OL of {ref.id} could not be read", outcome="not_done")
         commands = [cmd.set_speed("OH", ol), *moves]
         try:
-            op = await self._run(ref, "jog", request, commands, target=limit, holder=holder)
+            op = await self._run(ref, asked, commands, target=limit, holder=holder)
         except BaseException:
             self._give_back(ref, oh, None)
             raise

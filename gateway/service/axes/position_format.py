@@ -57,7 +57,7 @@ def check_target(ref: AxisRef, target: int, fmt: PositionFormat) -> None:
         raise InvalidInputError(
             f"target {target} pulses is negative, and controller {ref.controller_id} "
             "manages positions unsigned (EP0): the counter would wrap below 0",
-            field="body.position",
+            field="position",
             rule=f"{target_range_rule(fmt)}; negative positions need signed management: EP1 "
             "or mode 1",
         )
@@ -65,10 +65,10 @@ def check_target(ref: AxisRef, target: int, fmt: PositionFormat) -> None:
         raise InvalidInputError(
             f"target {target} pulses is beyond the position counter of controller "
             f"{ref.controller_id}: it would wrap",
-            field="body.position",
+            field="position",
             rule=target_range_rule(fmt),
         )
-    ref.check_target(target, "body.position")
+    ref.check_target(target, "position")
 
 
 def check_absolute_from(ref: AxisRef, here: int | None, fmt: PositionFormat) -> None:
@@ -80,7 +80,7 @@ def check_absolute_from(ref: AxisRef, here: int | None, fmt: PositionFormat) -> 
             f"axis {ref.id} stands at {here} pulses, a counter wrapped below 0 in unsigned "
             f"management (it reads {counter_of(here)}): an absolute move would travel "
             f"{counter_of(here)} pulses the wrong way",
-            field="body.position",
+            field="position",
             rule="in unsigned management (EP0) an absolute move needs a position >= 0: home "
             "the axis, or move relative (§7-4, §10 EP)",
         )

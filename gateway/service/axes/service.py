@@ -26,7 +26,6 @@ stop            ``S`` immediate, ``SS`` decelerate to Low speed then stop (§10 
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any
 
 from gateway.bus.requests import TransactionResult
 from gateway.bus.state_types import ErrorKind
@@ -53,7 +52,8 @@ from gateway.service.axes.speeds import (
     update_commands,
 )
 from gateway.service.leases import Leases
-from gateway.service.operations.registry import Operation, Operations
+from gateway.service.operations.asked import Asked, HomeAsked, JogAsked, MoveAsked, StepAsked
+from gateway.service.operations.book import Operation, Operations
 from gateway.service.operations.terms import (
     Direction,
     HomeMethod,
@@ -62,7 +62,6 @@ from gateway.service.operations.terms import (
     StopResult,
     Unit,
 )
-from gateway.service.operations.types import frames_of
 from gateway.service.presend import PreSendChecks
 from gateway.service.runtime.runtime import Runtime
 from gateway.service.stops import STOP_COMMANDS
@@ -143,25 +142,25 @@ class AxisService:
         ref = self.ref(ident)
         self._may_act(ref, holder)
         if unit is Unit.USER:
-            value = ref.to_pulses(position, "body.position")
+            value = ref.to_pulses(position, "position")
         elif float(position).is_integer():
             value = int(position)
         else:
             raise InvalidInputError(
                 f"{position} is not a whole number of pulses",
-                field="body.position",
+                field="position",
                 rule="a position in pulses is a whole number",
             )
         if abs(value) > UNSIGNED_MAX:  # no counter holds it: refused before anything is read
             raise InvalidInputError(
                 f"{position} is {value} pulses, beyond the 24-bit position counter",
-                field="body.position",
+                field="position",
                 rule=f"at most {UNSIGNED_MAX} pulses either way (§10 EP)",
             )
         if relative and value == 0:
             raise InvalidInputError(
                 "a relative move of 0 pulses",
-                field="body.position",
+                field="position",
                 rule="|distance| >= 1 pulse",
             )
         fmt = await self.formats.get(ref.loop, ref.body)
@@ -178,9 +177,9 @@ class AxisService:
             moves = [position_data(abs(value), fmt), cmd.move_cw() if value > 0 else cmd.move_ccw()]
         else:
             moves = [position_data(target, fmt), cmd.move_to_position_data()]
-        request = {"position": position, "relative": relative, "unit": unit.value}
+        asked = MoveAsked(position=position, relative=relative, unit=unit)
         step = value if relative else None
-        return await self._run(ref, "move", request, moves, target=target, step=step, holder=holder)
+        return await self._run(ref, asked, moves, target=target, step=step, holder=holder)
 
     async def home(self, ident: str, method: HomeMethod, *, holder: str) -> Operation:
         """Search the origin with ``method``; the position is 0 there (§10 0 ... 0Z)."""
@@ -190,8 +189,7 @@ class AxisService:
             commands = [cmd.select_motor(ref.motor), cmd.home("0Z")]
         else:
             commands = [cmd.home(_HOME[method])]
-        request = {"method": method.value}
-        return await self._run(ref, "home", request, commands, target=0, holder=holder)
+        return await self._run(ref, HomeAsked(method=method), commands, target=0, holder=holder)
 
     async def jog(
         self, ident: str, direction: Direction, speed: JogSpeed, *, holder: str
@@ -203,37 +201,37 @@ class AxisService:
         active = self.operations.active(ref.loop, ref.body)
         if (
             active is not None
-            and active.kind == "jog"
+            and isinstance(running := active.asked, JogAsked)
             and active.axis.id == ref.id
-            and active.request.get("direction") == direction.value
+            and running.direction is direction
         ):
             if active.target is not None:  # a move to the soft limit: its speed is fixed
-                if active.request.get("speed") == speed.value:
+                if running.speed is speed:
                     return active
                 raise ConflictError(
                     f"the jog of {ref.id} runs as a move to its soft limit; its speed cannot "
                     "change while it runs (H, L act on 7/8 only, §10 H, L): stop it first",
-                    field="body.speed",
+                    field="speed",
                 )
             # The same jog: only its speed changes (§10 H, L work while turning); a setting
             # from the network, refused in local control like any other.
             self.checks.remote(ref, "change the jog speed of")
             jog_speed = cmd.jog_high() if speed is JogSpeed.HIGH else cmd.jog_low()
             await self._submit(ref, [jog_speed], motor=None)
-            active.request["speed"] = speed.value
+            active.asked = running.model_copy(update={"speed": speed})
             return active
         self._may_act(ref, holder)
-        request = {"direction": direction.value, "speed": speed.value}
+        asked = JogAsked(direction=direction, speed=speed)
         if has_soft_limits(ref):
             fmt = await self.formats.get(ref.loop, ref.body)
             current = await self.origins.confirm(ref, "jog")
             limit = jog_limit(ref, direction is Direction.CW, fmt)
             if limit is not None:
-                return await self._limit_jogs.start(ref, request, current, limit, fmt, holder)
+                return await self._limit_jogs.start(ref, asked, current, limit, fmt, holder)
         commands = [_JOG[direction]()]
         if speed is JogSpeed.HIGH:
             commands.append(cmd.jog_high())
-        return await self._run(ref, "jog", request, commands, holder=holder)
+        return await self._run(ref, asked, commands, holder=holder)
 
     async def step(self, ident: str, direction: Direction, *, holder: str) -> Operation:
         """Move one pulse (``7*`` / ``8*``), inside the soft limits."""
@@ -244,12 +242,10 @@ class AxisService:
         here = here if here is not None else await self._current(ref)
         target = here + (1 if direction is Direction.CW else -1)
         check_target(ref, target, fmt)
-        request = {"direction": direction.value}
         commands = [_STEP[direction]()]
         step = 1 if direction is Direction.CW else -1
-        return await self._run(
-            ref, "step", request, commands, target=target, step=step, holder=holder
-        )
+        asked = StepAsked(direction=direction)
+        return await self._run(ref, asked, commands, target=target, step=step, holder=holder)
 
     async def stop(self, ident: str, mode: StopMode) -> StopResult:
         """Stop: never refused (no lease, moving or state check). ``S``/``SS`` act on the
@@ -262,7 +258,7 @@ class AxisService:
             axis=ref.id,
             command=command.wire(),
             outcome=result.outcome,
-            frames=frames_of(result, self._prefix(ref)),
+            frames=result.frames,
             operation=op.id if op is not None else None,
         )
 
@@ -309,7 +305,7 @@ class AxisService:
         settings = settings_from(result, QUERIES)
         self._speeds[ref.id] = settings
         view = speed_view(ref.id, settings)
-        view.frames = frames_of(result, self._prefix(ref))[: len(commands)]
+        view.frames = [r.written for r in result.results[: len(commands)] if r.frame]
         return view
 
     # ------------------------------------------------------------------ errors
@@ -355,8 +351,7 @@ class AxisService:
     async def _run(
         self,
         ref: AxisRef,
-        kind: str,
-        request: dict[str, Any],
+        asked: Asked,
         commands: list[Command],
         *,
         target: int | None = None,
@@ -365,8 +360,7 @@ class AxisService:
     ) -> Operation:
         return await self.operations.run(
             ref,
-            kind,
-            request,
+            asked,
             commands,
             motor=ref.motor,
             target=target,

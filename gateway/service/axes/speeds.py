@@ -131,13 +131,13 @@ def update_commands(
     """
     if not given:
         raise InvalidInputError(
-            "no speed data given", field="body", rule="give at least one of oh, ol, os, oc, ox"
+            "no speed data given", field="change", rule="give at least one of oh, ol, os, oc, ox"
         )
     new = SpeedSettings(**{**_as_dict(current), **given})
     violation = speed_constraint_violation(new.oh, new.ol, new.oc)
     if violation is not None:
         field = next((f for f in ("oc", "oh", "ol") if f in given), "oc")
-        raise InvalidInputError(violation, field=f"body.{field}", rule=violation)
+        raise InvalidInputError(violation, field=field, rule=violation)
     commands: list[Command] = []
     # With OC = 0 the inequality holds whatever OH and OL are: clear an S-curve in use first.
     reset = current.oc > 0 and ("oh" in given or "ol" in given)

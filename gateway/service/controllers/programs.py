@@ -18,7 +18,7 @@ from gateway.protocol.program import Program, parse_program
 from gateway.protocol.reply_values import PortByte, ProgramState
 from gateway.service.commands import CommandRunner, require_done
 from gateway.service.controllers.replies import CommandResponse, port_json, response_of
-from gateway.service.controllers.resources import request_fields, value_of
+from gateway.service.controllers.resources import value_of
 from gateway.service.controllers.views import (
     PortView,
     ProgramData,
@@ -62,13 +62,12 @@ class ProgramService:
         return response_of(ref, require_done(ref, result))
 
     def check(self, text: str) -> Program:
-        """``text`` parsed (chapters 11-12); a broken rule raises naming the step and field
-        (``body.text...``). Nothing is sent."""
+        """``text`` parsed (chapters 11-12); a broken rule raises naming the step and the
+        field (``text``, ``text.<the statement's field>``). Nothing is sent."""
         try:
             return parse_program(text)
         except InvalidInputError as exc:
-            field = "body.text" if exc.field in (None, "text") else f"body.text.{exc.field}"
-            exc.field = field
+            exc.field = "text" if exc.field in (None, "text") else f"text.{exc.field}"
             raise
 
     async def upload(self, ref: ControllerRef, text: str, *, holder: str) -> CommandResponse:
@@ -96,7 +95,7 @@ class ProgramService:
         try:
             command = cmd.run_program(label)
         except ParameterError as exc:
-            raise InvalidInputError(str(exc), field="body.label", rule=exc.rule) from None
+            raise InvalidInputError(str(exc), field="label", rule=exc.rule) from None
         # GSS right after, in the same transaction: a G the device refuses (no program, a
         # label it lacks) is still answered '>' (§9-1 注意); the state shows whether it runs.
         result = await self.runner.run(ref, [command, cmd.program_state()], holder=holder)
@@ -152,8 +151,7 @@ class ProgramService:
         self, ref: ControllerRef, buffer: cmd.ProgramBuffer, value: int, *, holder: str
     ) -> CommandResponse:
         """``GW{bf}{du}{dl}``: one data buffer byte."""
-        with request_fields("path"):
-            command = cmd.set_program_buffer(buffer, value)
+        command = cmd.set_program_buffer(buffer, value)
         result = await self.runner.run(ref, command, holder=holder)
         return response_of(ref, require_done(ref, result))
 
@@ -161,8 +159,7 @@ class ProgramService:
         self, ref: ControllerRef, counter: int, value: int, *, holder: str
     ) -> CommandResponse:
         """``GW{ct}{dt}``: one counter."""
-        with request_fields("path"):
-            command = cmd.set_program_counter(counter, value)
+        command = cmd.set_program_counter(counter, value)
         result = await self.runner.run(ref, command, holder=holder)
         return response_of(ref, require_done(ref, result))
 

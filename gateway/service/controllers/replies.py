@@ -18,7 +18,6 @@ from typing import Annotated, Any
 from pydantic import BaseModel, Field, WithJsonSchema
 
 from gateway.bus.requests import CommandResult, ReplyKind, TransactionResult
-from gateway.protocol.models import Command
 from gateway.protocol.replies import ReplyValue
 from gateway.protocol.reply_values import Contact, ErrorWatch, PortByte, ProgramState
 from gateway.service.topology import ControllerRef
@@ -29,8 +28,6 @@ __all__ = [
     "VALUE_DOC",
     "CommandResponse",
     "CommandView",
-    "frame_of",
-    "frames_of",
     "port_json",
     "reply_json",
     "response_of",
@@ -137,16 +134,6 @@ class CommandResponse(BaseModel):
     ended: float | None
 
 
-def frame_of(ref: ControllerRef, command: Command) -> str:
-    """The frame of ``command`` to ``ref`` as text without CR: ``$1OH4000``."""
-    return f"{ref.series.value}{ref.body}{command.wire()}"
-
-
-def frames_of(ref: ControllerRef, result: TransactionResult) -> list[str]:
-    """The frames of the commands of ``result`` that went out (not SKIPPED)."""
-    return [frame_of(ref, r.command) for r in result.results if r.kind is not ReplyKind.SKIPPED]
-
-
 def _view(result: CommandResult) -> CommandView:
     command = result.command
     return CommandView(
@@ -170,7 +157,7 @@ def response_of(ref: ControllerRef, result: TransactionResult) -> CommandRespons
         controller=ref.id,
         outcome=result.outcome.value,
         results=[_view(r) for r in result.results],
-        frames=frames_of(ref, result),
+        frames=result.frames,
         exchanges=result.exchanges,
         started=wall_time(result.started),
         ended=wall_time(result.ended),

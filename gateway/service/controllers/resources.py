@@ -9,8 +9,7 @@ it, 504 when its reply was lost.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from collections.abc import Callable
 from enum import StrEnum
 from typing import Any
 
@@ -42,7 +41,6 @@ __all__ = [
     "EEPROM_SAVE",
     "ControllerResources",
     "EepromArea",
-    "request_fields",
     "value_of",
 ]
 
@@ -67,17 +65,6 @@ EEPROM_LOAD: dict[EepromArea, Callable[[], Command]] = {
     EepromArea.POSITIONS: cmd.load_positions,
     EepromArea.PROGRAM: cmd.load_program,
 }
-
-
-@contextmanager
-def request_fields(where: str = "body") -> Iterator[None]:
-    """A parameter a command constructor refuses, told as the field of the request it came
-    from (``where``: ``body`` or ``path``; ``path.pn``): 422 naming it and its rule."""
-    try:
-        yield
-    except ParameterError as exc:
-        field = f"{where}.{exc.field}" if exc.field else where
-        raise InvalidInputError(str(exc), field=field, rule=exc.rule) from None
 
 
 def value_of(ref: ControllerRef, result: TransactionResult, index: int = -1) -> Any:
@@ -121,8 +108,7 @@ class ControllerResources:
 
     async def position(self, ref: ControllerRef, number: int) -> PositionEntry:
         """Entry ``number`` of the position table (``A{pn}D``, §10 A form III)."""
-        with request_fields("path"):
-            command = cmd.table_entry(number)
+        command = cmd.table_entry(number)
         value = value_of(ref, await self.runner.run(ref, command, holder=""))
         return PositionEntry(controller=ref.id, number=number, position=int(value))
 
@@ -144,20 +130,19 @@ class ControllerResources:
         management carry a sign").
         """
         if current:
-            with request_fields("path"):
-                command = cmd.store_position(number)
+            command = cmd.store_position(number)
             return await self._write(ref, command, holder, motor=motor)
         signed = self._mode(ref) == 1
         fmt = PositionFormat.SIGNED if signed else None
         if position is None:  # the request's schema lets no such body through
             rule = "a position in pulses, or current: true"
-            raise InvalidInputError(f"entry {number}: {rule}", field="body.position", rule=rule)
+            raise InvalidInputError(f"entry {number}: {rule}", field="position", rule=rule)
         pp = position
         try:
             command = cmd.set_table_entry(number, pp, fmt, signed=signed or pp < 0)
         except ParameterError as exc:  # pn is the path's, checked there: pp is `position`
             raise InvalidInputError(
-                str(exc), field="body.position", rule=_position_rule(exc)
+                str(exc), field="position", rule=_position_rule(exc)
             ) from None
         return await self._write(ref, command, holder)
 
@@ -190,8 +175,7 @@ class ControllerResources:
 
     async def bit(self, ref: ControllerRef, port: str, bit: int) -> BitView:
         """One input (``C{bit}``) or output (``CO{bit}``) bit; 8, 9 = INP1/2 or CLR1/2."""
-        with request_fields("path"):
-            command = cmd.input_bit(bit) if port == "inputs" else cmd.output_bit(bit)
+        command = cmd.input_bit(bit) if port == "inputs" else cmd.output_bit(bit)
         value = value_of(ref, await self.runner.send(ref, [command]))
         return BitView(controller=ref.id, bit=bit, on=bool(value))
 
@@ -200,24 +184,21 @@ class ControllerResources:
     ) -> CommandResponse:
         """All outputs to ``value`` (``D{du}{dl}``), with ``clr`` (CLR1, CLR2) too
         (``DA{dc}{du}{dl}``, modes 0, 1)."""
-        with request_fields():
-            command = cmd.set_outputs(value, clr)
+        command = cmd.set_outputs(value, clr)
         return await self._write(ref, command, holder)
 
     async def set_output_bit(
         self, ref: ControllerRef, bit: int, on: bool, *, holder: str
     ) -> CommandResponse:
         """One output: ``D{bit}{value}B`` (0-7), ``D{clr}{value}B`` (8 CLR1, 9 CLR2)."""
-        with request_fields("path"):
-            command = cmd.set_output_bit(bit, on)
+        command = cmd.set_output_bit(bit, on)
         return await self._write(ref, command, holder)
 
     async def pulse_output(
         self, ref: ControllerRef, bit: int, time: int, *, holder: str
     ) -> CommandResponse:
         """Output ``bit`` ON for ``time`` x 100 ms (``P{bt}{time}``; it uses the timer)."""
-        with request_fields("path"):
-            command = cmd.pulse_output(bit, time)
+        command = cmd.pulse_output(bit, time)
         return await self._write(ref, command, holder)
 
     # ------------------------------------------------------------------ sensor logic, mode
@@ -242,8 +223,7 @@ class ControllerResources:
         self, ref: ControllerRef, motor: int, logic: SensorLogic, *, holder: str
     ) -> CommandResponse:
         """``EA{du}{dl}`` for ``motor`` (§10 EA; the EMS bit is common to both motors)."""
-        with request_fields():
-            command = cmd.set_sensor_logic(logic.byte)
+        command = cmd.set_sensor_logic(logic.byte)
         return await self._write(ref, command, holder, motor=motor)
 
     async def mode(self, ref: ControllerRef) -> ModeView:
@@ -253,8 +233,7 @@ class ControllerResources:
 
     async def set_mode(self, ref: ControllerRef, mode: int, *, holder: str) -> CommandResponse:
         """``E{mode}`` (§10 E: not while moving)."""
-        with request_fields():
-            command = cmd.set_mode(mode)
+        command = cmd.set_mode(mode)
         return await self._write(ref, command, holder)
 
     # ------------------------------------------------------------------ EEPROM
@@ -266,7 +245,7 @@ class ControllerResources:
         if action == "erase":
             command = cmd.erase_eeprom()
         elif area is None:
-            raise InvalidInputError("an EEPROM save or load names its area", field="body.area")
+            raise InvalidInputError("an EEPROM save or load names its area", field="area")
         else:
             command = (EEPROM_SAVE if action == "save" else EEPROM_LOAD)[area]()
         return await self._write(ref, command, holder)

@@ -1,7 +1,7 @@
-"""Operations: a motion from the request to its outcome. ``registry.Operations`` starts and
+"""Operations: a motion from the request to its outcome. ``book.Operations`` starts and
 keeps them, ``motion_watch`` follows each on the state cache, ``types`` holds the operation
 and its views, ``terms`` the words of a motion request (units, directions, stop modes)."""
 
-from gateway.service.operations.registry import Operations
+from gateway.service.operations.book import Operations
 
 __all__ = ["Operations"]

@@ -1,10 +1,13 @@
 """Operations on disk: the record of one, and the verdict on one the gateway lost to a crash.
 
 ``to_record`` / ``from_record`` turn an ``Operation`` into the JSON the state store keeps and
-back. An operation that had not ended when the process died (queued, sent or moving) is
-judged after the restart by ``read_back_after_restart``: the axis is read (status, then its
-motor's position) once its loop is up and its motor stands still, and the position is put
-against the operation's end and its start:
+back; what was asked is kept as the operation's ``kind`` and the asked fields (``request``),
+the shape every version of the gateway has written.
+
+An operation that had not ended when the process died (queued, sent or moving) is judged
+after the restart by ``read_back_after_restart``: the axis is read (status, then its motor's
+position) once its loop is up and its motor stands still, and the position is put against
+the operation's end and its start:
 
 * at the end (the target, or the pre-read plus the step) -> ``done``;
 * where it started (the pre-read) -> ``failed``, outcome ``not_done``;
@@ -29,8 +32,11 @@ import logging
 from collections.abc import Callable
 from typing import Any
 
+from pydantic import ValidationError
+
 from gateway.protocol import commands as cmd
 from gateway.protocol.reply_values import StatusFlags
+from gateway.service.operations.asked import asked_of, asked_record
 from gateway.service.operations.restart_stop import (
     AT_RESTART,
     HOLD_TO_RUN,
@@ -58,7 +64,7 @@ def to_record(op: Operation) -> dict[str, Any]:
         "id": op.id,
         "axis": op.axis.id,
         "kind": op.kind,
-        "request": op.request,
+        "request": asked_record(op.asked),
         "motor": op.motor,
         "target": op.target,
         "holder": op.holder,
@@ -87,12 +93,19 @@ def from_record(record: dict[str, Any], topology: Topology) -> Operation | None:
             record.get("id"), record.get("axis"),
         )  # fmt: skip
         return None
+    try:
+        asked = asked_of(record["kind"], record["request"])
+    except ValidationError as exc:
+        log.error(
+            "operation %s: its request does not fit its kind %r (%s); its record is not loaded",
+            record.get("id"), record.get("kind"), exc.errors(include_url=False),
+        )  # fmt: skip
+        return None
     error = record.get("error")
     op = Operation(
         id=record["id"],
         axis=axis,
-        kind=record["kind"],
-        request=dict(record["request"]),
+        asked=asked,
         motor=record["motor"],
         target=record["target"],
         holder=record["holder"],

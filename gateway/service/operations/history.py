@@ -16,8 +16,8 @@ import sqlite3
 from typing import Any
 
 from gateway.errors import NotFoundError
+from gateway.service.operations.book import Operations
 from gateway.service.operations.durable import from_record
-from gateway.service.operations.registry import Operations
 from gateway.service.operations.types import Operation, OperationState
 
 __all__ = ["find", "newest"]

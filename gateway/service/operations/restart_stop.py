@@ -36,7 +36,7 @@ from gateway.bus.events import LinkUp
 from gateway.bus.requests import LoopDown, Outcome
 from gateway.bus.scheduler import LinkState
 from gateway.protocol import commands as cmd
-from gateway.service.operations.types import Operation, frames_of
+from gateway.service.operations.types import Operation
 from gateway.service.runtime.runtime import Runtime
 
 __all__ = [
@@ -154,7 +154,7 @@ async def stop_left_running(
             stop.outcome, stop.error = Outcome.NOT_DONE, str(exc) or type(exc).__name__
         else:
             stop.outcome = result.outcome
-            stop.frames = frames_of(result, op.prefix)
+            stop.frames = result.frames
             stop.error = None if result.outcome is Outcome.DONE else _why(result.outcome)
         stop.time = time.time()
         # A refusal ('>@') is the controller's answer: sending it again would change nothing.

@@ -10,13 +10,11 @@ import asyncio
 import time
 from dataclasses import dataclass, field
 from enum import StrEnum
-from typing import Any
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, Field
 
-from gateway.bus.requests import ReplyKind, TransactionResult
 from gateway.protocol.models import Command
-from gateway.service.operations.terms import Direction, HomeMethod, JogSpeed, Unit
+from gateway.service.operations.asked import Asked, HomeAsked, JogAsked, MoveAsked, StepAsked
 from gateway.service.topology import AxisRef
 
 __all__ = [
@@ -25,7 +23,6 @@ __all__ = [
     "OperationError",
     "OperationState",
     "OperationView",
-    "frames_of",
 ]
 
 
@@ -63,38 +60,6 @@ class OperationError(BaseModel):
         return cls(kind=kind, title=title, detail=detail, outcome=outcome)
 
 
-class _Asked(BaseModel):
-    # Forbidding extra fields is what tells a jog (direction, speed) from a step (direction).
-    model_config = ConfigDict(extra="forbid")
-
-
-class MoveAsked(_Asked):
-    """A move as asked (kind ``move``)."""
-
-    position: float
-    relative: bool
-    unit: Unit
-
-
-class HomeAsked(_Asked):
-    """An origin search as asked (kind ``home``)."""
-
-    method: HomeMethod
-
-
-class JogAsked(_Asked):
-    """A jog as asked (kind ``jog``); ``speed`` follows a later change of speed."""
-
-    direction: Direction
-    speed: JogSpeed
-
-
-class StepAsked(_Asked):
-    """One pulse as asked (kind ``step``)."""
-
-    direction: Direction
-
-
 class OperationView(BaseModel):
     """One motion request and how it went."""
 
@@ -102,6 +67,8 @@ class OperationView(BaseModel):
     axis: str = Field(description="the axis id, loop.body.motor")
     axis_name: str | None
     kind: str = Field(description="move, home, jog or step")
+    # A plain union: the view is handed the operation's own model instance, which passes
+    # as it is; the asked models leave ``kind`` out of their JSON (it is the field above).
     request: MoveAsked | HomeAsked | JogAsked | StepAsked = Field(
         description="the request as given (its shape follows `kind`)"
     )
@@ -133,8 +100,7 @@ class Operation:
 
     id: str
     axis: AxisRef
-    kind: str
-    request: dict[str, Any]
+    asked: Asked  # what was asked; its ``kind`` is the operation's
     motor: int
     target: int | None
     holder: str | None
@@ -169,6 +135,11 @@ class Operation:
         return self.target
 
     @property
+    def kind(self) -> str:
+        """move, home, jog or step (the asked model's)."""
+        return self.asked.kind
+
+    @property
     def final(self) -> bool:
         """True once the operation has ended (done, failed or unknown)."""
         return self.state in FINAL
@@ -180,7 +151,7 @@ class Operation:
             axis=self.axis.id,
             axis_name=self.axis.name,
             kind=self.kind,
-            request=self.request,
+            request=self.asked,
             state=self.state,
             target=self.target,
             target_user=self.axis.to_user(self.target),
@@ -201,13 +172,3 @@ class Operation:
             ended=None if self.ended is None else round(self.ended, 6),
             updated=round(self.updated, 6),
         )
-
-
-def frames_of(result: TransactionResult, prefix: str) -> list[str]:
-    """The frames a transaction sent of its caller's commands (``$1OH4000``, no CR); the
-    scheduler's own (``F``, read-backs) are not among its results."""
-    return [
-        f"{prefix}{result.body}{r.command.wire()}"
-        for r in result.results
-        if r.kind is not ReplyKind.SKIPPED
-    ]

@@ -23,13 +23,13 @@ import logging
 import time
 from collections import OrderedDict
 from collections.abc import Callable, Sequence
-from typing import Any
 
 from gateway.bus.counting import follow_counter
 from gateway.bus.requests import LoopDown, Outcome, ReplyKind, TransactionResult
 from gateway.errors import ConflictError, DeviceError, NotFoundError, StateUnavailable
 from gateway.protocol.models import Command
 from gateway.service.events import EventKind, ServiceEvent
+from gateway.service.operations.asked import Asked
 from gateway.service.operations.durable import from_record, read_back_after_restart, to_record
 from gateway.service.operations.line_stop import LineStops
 from gateway.service.operations.motion_watch import MotionWatch
@@ -40,7 +40,6 @@ from gateway.service.operations.types import (
     OperationError,
     OperationState,
     OperationView,
-    frames_of,
 )
 from gateway.service.runtime.runtime import Runtime
 from gateway.service.store.records import (
@@ -165,8 +164,7 @@ class Operations:
     async def run(
         self,
         axis: AxisRef,
-        kind: str,
-        request: dict[str, Any],
+        asked: Asked,
         commands: Sequence[Command],
         *,
         motor: int | None,
@@ -175,7 +173,8 @@ class Operations:
         prefix: str = "$",
         holder: str | None = None,
     ) -> Operation:
-        """Create an operation, send ``commands`` as one transaction and follow the motion.
+        """Create an operation of ``asked``, send ``commands`` as one transaction and follow
+        the motion.
 
         Returns once the controller has answered: the operation is then ``sent`` (or already
         further). A transaction that did not take effect marks it ``failed`` / ``unknown`` and
@@ -209,8 +208,7 @@ class Operations:
         op = Operation(
             id=f"op-{number}-{int(time.time() * 1000) % 100_000_000:08d}",
             axis=axis,
-            kind=kind,
-            request=dict(request),
+            asked=asked,
             motor=motor or axis.motor,
             target=target,
             holder=holder,
@@ -270,7 +268,7 @@ class Operations:
 
     def _after(self, op: Operation, result: TransactionResult) -> None:
         """Record the transaction's result; raise what a caller must learn."""
-        op.frames = frames_of(result, op.prefix)
+        op.frames = result.frames
         for command_result in result.results:
             before = command_result.seen.get("position_before")
             if isinstance(before, int) and not isinstance(before, bool):
