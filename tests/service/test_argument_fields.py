@@ -24,7 +24,7 @@ from tests.support.sim_app import json_of, running_app
 
 async def test_the_axis_service_names_its_position_argument() -> None:
     async with running_app(("1",)) as api:
-        axes: AxisService = api.app.state.axes
+        axes: AxisService = api.services.axes
         mark = api.mark()
         with pytest.raises(InvalidInputError) as whole:
             await axes.move("x", 10.5, relative=False, unit=Unit.PULSE, holder="script")
@@ -42,7 +42,7 @@ async def test_the_axis_service_names_its_position_argument() -> None:
 
 async def test_the_controller_and_loop_services_name_their_arguments() -> None:
     async with running_app(("1",)) as api:
-        controllers: ControllerService = api.app.state.controllers
+        controllers: ControllerService = api.services.controllers
         with pytest.raises(InvalidInputError) as jump:
             controllers.programs.check("/D00/J+5/END")
         assert jump.value.field == "text.jump"
@@ -50,7 +50,7 @@ async def test_the_controller_and_loop_services_name_their_arguments() -> None:
         with pytest.raises(ParameterError) as number:  # the command's own parameter
             await controllers.resources.position(ref, 9999)
         assert number.value.field == "pn"
-        baud: BaudChanger = api.app.state.baud
+        baud: BaudChanger = api.services.baud
         with pytest.raises(InvalidInputError) as rate:
             await baud.change(SIM_LOOP, 2400)
         assert rate.value.field == "baud"

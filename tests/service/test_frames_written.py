@@ -38,7 +38,7 @@ async def test_a_moves_operation_and_audit_entry_show_its_frames_with_their_chec
         assert heard == [f[2:] for f in expected]  # as the controller heard them
         stored = json_of(await api.client.get(f"/operations/{view['id']}"))
         assert stored["frames"] == expected
-        await api.app.state.audit.flush()
+        await api.services.audit.flush()
     entries = [json.loads(line) for line in audit_log.read_text("utf-8").splitlines()]
     moves = [e for e in entries if e.get("path", "").endswith("/axes/x/move") and "status" in e]
     assert len(moves) == 1, entries
