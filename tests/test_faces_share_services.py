@@ -12,7 +12,7 @@ import pytest
 from asyncua import ua
 
 from gateway.api.app_services import services_of
-from gateway.mqtt.commands import DeviceCommands
+from gateway.mqtt.dcmd import DeviceCommands
 from gateway.opcua.face import OpcUaFace
 from gateway.opcua.methods import StatusRefusal
 from gateway.opcua.status_codes import INVALID_STATE

@@ -41,7 +41,7 @@ from gateway.cli.logs import configure_logging
 from gateway.cli.notify import notify
 from gateway.cli.simulated_lines import SimulatedCell, sim_line, simulated_lines
 from gateway.compose import compose
-from gateway.mqtt.commands import DeviceCommands
+from gateway.mqtt.dcmd import DeviceCommands
 from gateway.mqtt.edge_node import EdgeNode
 from gateway.opcua.face import OpcUaFace
 from gateway.service.config import ConfigError, GatewayConfig

@@ -34,7 +34,7 @@ import aiomqtt
 from paho.mqtt.subscribeoptions import SubscribeOptions
 
 from gateway.mqtt.broker_client import broker_client, client_id
-from gateway.mqtt.commands import DeviceCommands
+from gateway.mqtt.dcmd import DeviceCommands
 from gateway.mqtt.metric_table import MetricTable, Values, axis_label, changed, device_id, millis
 from gateway.mqtt.primary_host import PrimaryHost
 from gateway.mqtt.session_guard import Backoff, DuplicateNode, PayloadBound, taken_over

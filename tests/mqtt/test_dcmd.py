@@ -13,7 +13,7 @@ import time
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 
-from gateway.mqtt.commands import DeviceCommands
+from gateway.mqtt.dcmd import DeviceCommands
 from gateway.mqtt.edge_node import EdgeNode
 from gateway.service.config import MqttSettings
 from tests.mqtt.sparkplug_decoder import command

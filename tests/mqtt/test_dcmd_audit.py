@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from gateway.api.audit_log import AuditLog
-from gateway.mqtt.commands import DeviceCommands
+from gateway.mqtt.dcmd import DeviceCommands
 from gateway.mqtt.sparkplug import Value
 from tests.support.sim_app import TOKENS, running_app
 

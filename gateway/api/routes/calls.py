@@ -22,7 +22,7 @@ from gateway.api.routes.deps import Admin, Operator, Service, note_sent
 from gateway.api.security import Principal
 from gateway.service.axes import AxisService
 from gateway.service.controllers import ControllerService
-from gateway.service.controllers.replies import CommandResponse
+from gateway.service.controllers.command_results import CommandResponse
 from gateway.service.operations.book import Operation
 from gateway.service.operations.types import OperationState, OperationView
 from gateway.service.topology import ControllerRef

@@ -39,7 +39,7 @@ from gateway.api.routes.programs import router as programs_router
 from gateway.protocol.command_text import Context, command_union
 from gateway.protocol.models import Command
 from gateway.service.commands import ROLE_RULE, required_role
-from gateway.service.controllers.replies import CommandResponse
+from gateway.service.controllers.command_results import CommandResponse
 from gateway.service.controllers.views import (
     BitView,
     IoView,

@@ -16,7 +16,7 @@ from gateway.api.audit import audit_note
 from gateway.api.problems import ApiProblem, Problem, problem_type
 from gateway.api.security import Principal, require
 from gateway.service.commands import ROLE_RULE
-from gateway.service.controllers.replies import CommandResponse
+from gateway.service.controllers.command_results import CommandResponse
 from gateway.service.controllers.service import ControllerService
 from gateway.service.roles import Role
 from gateway.service.stops import StopAll

@@ -16,7 +16,7 @@ from gateway.api.problems import PROBLEM_RESPONSES
 from gateway.api.routes.bodies import RawRequest, StopRequest, TraceSettings
 from gateway.api.routes.deps import Admin, Operator, Service, Stops, Viewer, note_sent
 from gateway.errors import NotFoundError
-from gateway.service.controllers.replies import CommandResponse
+from gateway.service.controllers.command_results import CommandResponse
 from gateway.service.controllers.service import TraceView
 from gateway.service.stops import LoopStop
 from gateway.service.views import LoopView

@@ -23,7 +23,7 @@ from gateway.api.routes.bodies import (
 )
 from gateway.api.routes.calls import AdminWrite, OperatorWrite
 from gateway.api.routes.deps import Id, Operator, Service
-from gateway.service.controllers.replies import CommandResponse
+from gateway.service.controllers.command_results import CommandResponse
 from gateway.service.controllers.views import (
     ProgramCheck,
     ProgramData,

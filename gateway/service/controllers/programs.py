@@ -17,7 +17,7 @@ from gateway.protocol.models import Command
 from gateway.protocol.program import Program, parse_program
 from gateway.protocol.reply_values import PortByte, ProgramState
 from gateway.service.commands import CommandRunner, require_done
-from gateway.service.controllers.replies import CommandResponse, port_json, response_of
+from gateway.service.controllers.command_results import CommandResponse, port_json, response_of
 from gateway.service.controllers.resources import value_of
 from gateway.service.controllers.views import (
     PortView,

@@ -25,7 +25,7 @@ from gateway.protocol.reply_values import (
     SensorLogic,
 )
 from gateway.service.commands import CommandRunner, require_done
-from gateway.service.controllers.replies import CommandResponse, port_json, response_of
+from gateway.service.controllers.command_results import CommandResponse, port_json, response_of
 from gateway.service.controllers.views import (
     BitView,
     IoView,

@@ -31,8 +31,8 @@ from gateway.protocol.command_text import parse
 from gateway.protocol.models import Command
 from gateway.service.commands import CommandRunner
 from gateway.service.control import ControlView
+from gateway.service.controllers.command_results import CommandResponse, response_of
 from gateway.service.controllers.programs import ProgramService
-from gateway.service.controllers.replies import CommandResponse, response_of
 from gateway.service.controllers.resources import ControllerResources
 from gateway.service.presend import LeaseCheck
 from gateway.service.runtime.runtime import Runtime
