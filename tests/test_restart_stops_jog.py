@@ -48,6 +48,7 @@ async def test_a_jog_left_running_by_a_killed_gateway_is_stopped_at_the_restart(
         assert jog["kind"] == "jog" and jog["frames"] == ["$17"], jog  # §10 7: CW at Low
         if jog["state"] != "moving":
             await until(lambda data: data["id"] == jog["id"] and data["state"] == "moving")
+        await rig.stored(jog["id"], "moving")  # the record a restart reads, with its frames
     rig.kill()  # the holder of the jog is gone with the process
     await rig.wait_killed()
     alone = await rig.axis("1", 1)

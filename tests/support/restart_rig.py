@@ -11,11 +11,13 @@ of the running gateway over its WebSocket (woken by each message, no sleeping).
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import json
 import os
 import re
 import signal
 import socket
+import sqlite3
 import sys
 from collections.abc import AsyncIterator, Callable
 from contextlib import asynccontextmanager
@@ -25,6 +27,7 @@ from typing import Any
 
 from websockets.asyncio.client import ClientConnection, connect
 
+from gateway.service.store.database import DATABASE_NAME
 from tests.support.ws_events import sim_control
 
 GATEWAY = Path(sys.executable).parent / "rc233-gateway"
@@ -141,6 +144,25 @@ class RestartRig:
         assert code == 0, "".join(self.gateway.log)
 
     # ------------------------------------------------------------------ the simulator
+
+    async def stored(self, op_id: str, state: str) -> None:
+        """Wait until the state store on disk holds operation ``op_id`` in ``state``: the
+        gateway queues its saves after it publishes a change, so an event a client saw can be
+        ahead of the record a restart reads (read through SQLite's WAL, as a new process
+        would)."""
+        def read() -> str | None:
+            path = self.state_dir / DATABASE_NAME
+            if not path.exists():
+                return None
+            with contextlib.closing(sqlite3.connect(f"file:{path}?mode=ro", uri=True)) as db:
+                row = db.execute("SELECT state FROM operations WHERE id = ?", (op_id,)).fetchone()
+            return None if row is None else str(row[0])
+
+        async def until_stored() -> None:
+            while await asyncio.to_thread(read) != state:
+                await asyncio.sleep(0.02)  # a file another process writes: no event to wait on
+
+        await asyncio.wait_for(until_stored(), WAIT)
 
     async def control(self, **request: Any) -> dict[str, Any]:
         """One request to the simulator's control surface."""
