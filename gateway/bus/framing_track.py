@@ -25,6 +25,7 @@ from gateway.protocol.command_replies import fits_with_checksum, fits_without_ch
 from gateway.protocol.framing import BODY_NUMBERS, Framing
 from gateway.protocol.models import Command
 from gateway.protocol.reply_parser import (
+    Accepted,
     ChecksumMismatch,
     CommandRejected,
     DataReply,
@@ -109,9 +110,20 @@ def hint_from_reply(
     * a checksum mismatch on a message that is a valid reply without a checksum: SUM0 while
       SUM1 was assumed. (A bit flipped by noise leaves no valid plain reply.)
     * '>@' to a general command while ER0 was assumed and a program may print (``printing``:
-      the parser then waits for the byte after '>' and reads ER1's '>@' whole, §10 ER).
+      the parser then waits for the byte after '>' and reads ER1's '>@' whole, §10 ER);
+    * a bare '>' to a read that is never refused (allowed while moving: ``""``, ``9``, ``6``)
+      while SUM1 was assumed: a controller on SUM0 read the checksum digits as part of the
+      command and refused it (``$155`` CR is command ``55``). The one-character '>' carries no
+      checksum (§10 SUM), so nothing else of such a reply tells.
     """
     fmt = command.reply_format
+    if (
+        isinstance(event, Accepted)
+        and framing.checksum
+        and fmt.has_data
+        and command.spec.form_while_moving(command.form)
+    ):
+        return "a read answered with a bare '>' (SUM0?)"
     rejected = isinstance(event, CommandRejected) and not fmt.has_data
     if rejected and printing and not framing.error_mark:
         return "'>@' while ER0 was assumed (ER1?)"

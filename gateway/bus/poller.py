@@ -366,6 +366,9 @@ class Poller:
             if plan.misses >= self.config.offline_after and self._online(plan.body) is not False:
                 plan.probe_delay = self.config.probe_initial
                 plan.times.replace({Job.PROBE: now + self._plan.host(plan.probe_delay)})
+                # Off, it comes back with the framing DW stored (§10 SUM): probed plain, not with
+                # a checksum it would read as part of the command ('$256' CR: '56', an error).
+                self._scheduler.forget(plan.body)
                 # The cache takes it as not moving any more (nothing it said is current).
                 self._publish(
                     ControllerAnswering(loop=self.loop, time=now, body=plan.body, online=False)

@@ -169,6 +169,12 @@ class TransactionRunner:
             await ensure_framing(core, body)
             st.framing = core.framing.get(body)
             refused = await self._prepare(st)
+            if self._framing_doubted(st):
+                if st.redetected:
+                    note = "the framing is still in doubt after reading it back: not sent"
+                    return st.result(ReplyKind.SKIPPED, Outcome.NOT_DONE, note)
+                st.redetected = True
+                continue  # read the framing back, then the pre-reads again
             if refused is not None:
                 return refused
             if core.stops.waiting():
@@ -198,6 +204,15 @@ class TransactionRunner:
                     return st.result(sent.kind, Outcome.UNKNOWN, sent.note)
                 return await self._verify(st, sent.kind)
             return await self._finish(st, sent)
+
+    def _framing_doubted(self, st: _Step) -> bool:
+        """A reply since the framing was settled (a pre-read, the F confirmation) showed
+        another framing, and ``st``'s command acts: it is not sent in a framing in doubt. A
+        controller that lost SUM1 reads the checksum digits as part of the command
+        (``$1210018`` CR is position data 10018, §10 SUM); a stop is never held back."""
+        if st.command.form.effect in (Effect.QUERY, Effect.STOP):
+            return False
+        return self.core.framing.suspicion(self.body) is not None
 
     def _overtaken(self, command: Command) -> bool:
         """A stop to this controller went out during the transaction, and ``command`` acts."""
@@ -320,6 +335,7 @@ class _Step:
     retries: Retries
     attempts: int = 0
     reframed: bool = False
+    redetected: bool = False  # the framing was read back again before the send
     framing: Framing = field(default_factory=Framing)
     mark: int = 0  # $B#* seen before the send (EEPROM writes)
     before_pos: int | None = None
