@@ -10,12 +10,18 @@ from __future__ import annotations
 
 import pytest
 
-from gateway.errors import InvalidInputError
+from gateway.errors import ConflictError, InvalidInputError
 from gateway.protocol.command_text import parse
+from gateway.service.axes.origin_guard import HOME_FIRST_RULE
 from gateway.service.axes.soft_limits import UNKNOWN_TARGET_RULE, Guarded, SoftLimits
 from gateway.service.config import GatewayConfig, parse_config
+from gateway.service.operations.terms import HomeMethod, Unit
+from gateway.service.operations.types import OperationState
 from gateway.service.runtime.simulated import SIM_LOOP
+from gateway.sim.control import Controls
 from tests.support.sim_app import SimGateway, running_services
+
+WAIT = 20.0
 
 
 def limited_x() -> GatewayConfig:
@@ -106,3 +112,32 @@ async def test_moves_to_the_origin_pass_and_an_axis_without_limits_is_not_touche
         assert wires(await guard(gw, ["1"], motor=1)) == ["1"]  # to 0: inside
         guarded = await guard(gw, ["7"], motor=2)  # y has no soft limits
         assert wires(guarded) == ["7"] and guarded.motor == 2
+
+
+async def test_a_relative_table_move_is_checked_from_the_position_by_the_entrys_size() -> None:
+    async with running_services(("1",), config=limited_x()) as gw:
+        await send(gw, "EP1")
+        await send(gw, "A0013000")
+        # B001- moves by |A001| CCW (§10 B+(-)): to -3,000, inside; the entry is written again
+        assert wires(await guard(gw, ["B001-"], motor=1)) == ["A001+3000", "B001-"]
+        await send(gw, "A0015000")
+        with pytest.raises(InvalidInputError) as refused:  # to -5,000: below -40 mm
+            await guard(gw, ["B001-"], motor=1)
+        assert "to -5000 pulses" in str(refused.value) and "-40" in refused.value.rule
+
+
+async def test_after_a_reset_a_motion_on_a_limited_axis_waits_for_a_home() -> None:
+    async with running_services(("1",), config=limited_x()) as gw:
+        home = await gw.services.axes.home("x", HomeMethod.SEARCH_1, holder="alice")
+        assert (await gw.operations.wait(home.id, WAIT)).state is OperationState.DONE
+        move = await gw.services.axes.move(
+            "x", 1000, relative=False, unit=Unit.PULSE, holder="alice"
+        )
+        assert (await gw.operations.wait(move.id, WAIT)).state is OperationState.DONE
+        Controls(gw.sim).power_cycle("1")  # RAM lost, counters at 0 where the axes stand (§16)
+        mark = gw.mark()
+        with pytest.raises(ConflictError) as refused:  # the reading made now shows the reset
+            await guard(gw, ["3"], motor=1)
+        assert refused.value.field == "text" and refused.value.rule == HOME_FIRST_RULE
+        assert "controller sim.1 was reset" in str(refused.value)
+        assert gw.acted("1", mark) == []
