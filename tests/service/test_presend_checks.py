@@ -105,9 +105,7 @@ async def test_a_moving_controller_refuses_its_other_axis_and_settings_not_usabl
         await gw.until(lambda: gw.cached("1").moving is True)
         with pytest.raises(ConflictError) as refused:  # §10 F: not while a motor moves
             await gw.services.controllers.raw("sim", "1", "F2", motor=None, holder="alice")
-        assert refused.value.field == "command" and "not usable while moving" in str(
-            refused.value
-        )
+        assert refused.value.field == "command" and "not usable while moving" in str(refused.value)
         assert gw.acted("1", mark) == []
         await gw.services.axes.stop("x", StopMode.IMMEDIATE)
         ended = await gw.operations.wait(jog.id, WAIT)

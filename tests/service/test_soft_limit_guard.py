@@ -78,7 +78,8 @@ async def test_4_and_5_are_checked_from_the_position_read_now() -> None:
         assert "to -5000 pulses" in str(refused.value) and "EP0" in refused.value.rule
         await send(gw, "EP1")  # signed: below 0 is a position, and the soft minimum decides
         await send(gw, "23000")
-        assert wires(await guard(gw, ["5"], motor=1)) == ["2+3000", "5"]  # to -3,000, in the signed form
+        # to -3,000: inside; the data is written again in the signed form
+        assert wires(await guard(gw, ["5"], motor=1)) == ["2+3000", "5"]
         await send(gw, "25000")
         with pytest.raises(InvalidInputError) as refused:  # to -5,000: below -40 mm
             await guard(gw, ["5"], motor=1)
