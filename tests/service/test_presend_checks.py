@@ -9,10 +9,13 @@ from __future__ import annotations
 
 import pytest
 
+from gateway.bus.requests import LoopDown
+from gateway.bus.scheduler import LinkState
 from gateway.errors import ConflictError, DeviceError, InvalidInputError
 from gateway.protocol.command_text import parse
 from gateway.service.control import ControlState
-from gateway.service.operations.terms import Direction, JogSpeed, StopMode, Unit
+from gateway.service.events import EventKind
+from gateway.service.operations.terms import Direction, HomeMethod, JogSpeed, StopMode, Unit
 from gateway.service.operations.types import OperationState
 from gateway.sim.control import Controls
 from tests.support.sim_app import SimGateway, running_services
@@ -146,4 +149,24 @@ async def test_a_form_outside_the_controllers_mode_is_refused_with_the_modes_it_
             await gw.services.controllers.raw("sim", "1", "EP1", motor=None, holder="alice")
         assert refused.value.field == "command"
         assert "mode 1" in str(refused.value) and "modes 0, 2 only" in refused.value.rule
+        assert gw.acted("1", mark) == []
+
+
+async def test_a_dead_loop_refuses_after_the_lease_and_before_anything_is_sent() -> None:
+    async with running_services(("1",)) as gw:
+        gw.leases.acquire("sim.1.1", "alice", 60.0)
+        scheduler = gw.runtime.scheduler("sim")
+        gw.sim.act(lambda now: gw.sim.set_cut(True, now))
+        await gw.until(lambda: scheduler.state is not LinkState.UP)
+        mark, seen = gw.mark(), len(gw.events)
+        with pytest.raises(ConflictError) as leased:  # the lease is checked first
+            await move(gw, "x", 100, holder="bob")
+        assert leased.value.holder == "alice"
+        with pytest.raises(LoopDown) as down:  # the line before the controller's state
+            await gw.services.axes.home("x", HomeMethod.SEARCH_1, holder="alice")
+        assert (down.value.loop, down.value.in_flight) == ("sim", False)
+        assert "loop 'sim' is down" in str(down.value)
+        # refused before an operation exists: none queued, none failed
+        assert [e for e in gw.events[seen:] if e.kind is EventKind.OPERATION] == []
+        gw.sim.act(lambda now: gw.sim.set_cut(False, now))
         assert gw.acted("1", mark) == []
