@@ -10,6 +10,9 @@ gives an httpx client on it. Without
 ``TOKENS``; ``audit_log`` is the audit log's file; ``config`` replaces the simulated one.
 ``api.heard(body)`` is what the simulated controller heard, from the simulator's own line
 log, so a test asserts the bytes on the wire.
+
+``async with running_services() as gw:`` is the same gateway without the app: the services of
+``compose``, started and identified, for tests that call ``gateway.service`` directly.
 """
 
 from __future__ import annotations
@@ -28,6 +31,8 @@ from gateway.api.security import AuthConfig, TokenBook, TokenEntry, hash_token
 from gateway.bus.state_types import ControllerState
 from gateway.cli.serve import sim_line
 from gateway.compose import compose
+from gateway.protocol.command_text import parse
+from gateway.protocol.spec import Effect
 from gateway.service.config import GatewayConfig
 from gateway.service.events import ServiceEvent
 from gateway.service.leases import Leases
@@ -81,15 +86,14 @@ def json_of(response: httpx.Response) -> Any:
 
 
 @dataclass
-class Api:
-    """A running app, its gateway, the simulated loop behind it and a client."""
+class SimGateway:
+    """A running gateway's services (``compose``), its runtime and the simulated loop behind
+    it, for tests that call ``gateway.service`` directly (``running_services``)."""
 
-    app: FastAPI
     runtime: Runtime
     sim: SimLoop
-    client: httpx.AsyncClient
     events: list[ServiceEvent]
-    #: what the app serves (``compose``): the very objects MQTT and OPC UA would be given
+    #: what the faces serve (``compose``): the very objects REST, MQTT and OPC UA are given
     services: Services
 
     @property
@@ -118,6 +122,11 @@ class Api:
             for r in self.sim.log.since(since)
             if r.kind is RecordKind.HEARD and r.ref > 0 and r.body == body
         ]
+
+    def acted(self, body: str = "1", since: int = 0) -> list[str]:
+        """What controller ``body`` heard (since ``mark``) that changes something: every
+        command but the queries (the poller's reads), as the catalog classes them."""
+        return [t for t in self.heard(body, since) if parse(t).form.effect is not Effect.QUERY]
 
     def device(self, body: str = "1") -> Any:
         """The simulated controller at ``body``."""
@@ -153,6 +162,55 @@ class Api:
         await self.until(done)
 
 
+@dataclass
+class Api(SimGateway):
+    """A running app, its gateway, the simulated loop behind it and a client."""
+
+    app: FastAPI
+    client: httpx.AsyncClient
+
+
+def _simulated(
+    bodies: Sequence[str],
+    scale: float,
+    eeprom_dir: Path | None,
+    config: GatewayConfig | None,
+    store: StateStore | None,
+) -> tuple[SimLoop, Runtime]:
+    sim = build_loop(list(bodies), clock=SimClock(scale), eeprom_dir=eeprom_dir)
+    config = config or simulated_config(bodies)
+    # The in-process line of ``serve --simulate``: a port reopened at another rate (POST
+    # /loops/{loop}/baud) sets the simulated line's, and controllers at another rate hear noise.
+    line = sim_line(sim)
+    runtime = Runtime(config, transports={SIM_LOOP: line}, time_scale=scale, store=store)
+    return sim, runtime
+
+
+@asynccontextmanager
+async def running_services(
+    bodies: Sequence[str] = ("1", "2", "3"),
+    *,
+    scale: float = SCALE,
+    config: GatewayConfig | None = None,
+) -> AsyncIterator[SimGateway]:
+    """The services of ``compose`` on a simulated loop, started as the app's lifespan starts
+    them and identified; closed after the block. No app, no HTTP: the caller is the service."""
+    sim, runtime = _simulated(bodies, scale, None, config, None)
+    services = compose(runtime)
+    events: list[ServiceEvent] = []
+    runtime.events.subscribe(events.append)
+    try:
+        await services.start()
+        try:
+            gateway = SimGateway(runtime, sim, events, services)
+            await gateway.identified()
+            yield gateway
+        finally:
+            await services.close()
+    finally:
+        sim.close()
+
+
 @asynccontextmanager
 async def running_app(
     bodies: Sequence[str] = ("1", "2", "3"),
@@ -169,15 +227,10 @@ async def running_app(
 
     ``cache_last``: the state cache hears each scheduler event after every other subscriber
     rather than first (no answer may depend on the order)."""
-    sim = build_loop(list(bodies), clock=SimClock(scale), eeprom_dir=eeprom_dir)
     config = config or simulated_config(bodies)
     if audit_log is not None:
         config = config.model_copy(update={"audit_log": audit_log})
-
-    # The in-process line of ``serve --simulate``: a port reopened at another rate (POST
-    # /loops/{loop}/baud) sets the simulated line's, and controllers at another rate hear noise.
-    line = sim_line(sim)
-    runtime = Runtime(config, transports={SIM_LOOP: line}, time_scale=scale, store=store)
+    sim, runtime = _simulated(bodies, scale, eeprom_dir, config, store)
     if roles:
         book = TokenBook(TokenEntry(n, role, hash_token(t)) for n, (t, role) in TOKENS.items())
         auth = AuthConfig(book)
@@ -196,7 +249,7 @@ async def running_app(
             async with httpx.AsyncClient(
                 transport=transport, base_url=BASE, timeout=WAIT, event_hooks=DECLARE_JSON
             ) as client:
-                api = Api(app, runtime, sim, client, events, services)
+                api = Api(runtime, sim, events, services, app=app, client=client)
                 await api.identified()
                 yield api
     finally:
