@@ -143,8 +143,11 @@ async def run(url: str, token: str | None, axis: str) -> None:
         # Caught up by a replay of what was missed (``subscribed`` after it), or by a fresh
         # snapshot when the gateway restarted or the replay buffer no longer reaches back.
         last = (await watcher.session("subscribed", "snapshot"))[-1]
-        how = f"{last['replayed']} missed messages replayed" if last["type"] == "subscribed" \
+        how = (
+            f"{last['replayed']} missed messages replayed"
+            if last["type"] == "subscribed"
             else "a fresh snapshot"
+        )
         print(f"resume {axis}: {how}, position {watcher.positions[-1]}")
 
 

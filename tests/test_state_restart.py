@@ -43,9 +43,7 @@ async def test_a_key_accepted_before_a_kill_is_replayed_after_the_restart_and_ne
         rig.events() as until,
     ):
         # The MES waits for the end: the gateway dies before it can answer.
-        first = asyncio.ensure_future(
-            client.post("/axes/x/move?wait=true", json=MOVE, headers=key)
-        )
+        first = asyncio.ensure_future(client.post("/axes/x/move?wait=true", json=MOVE, headers=key))
         op = await until(lambda data: data["state"] == "moving")
         rig.kill()  # mid-move: the controller goes on alone
         await rig.wait_killed()
@@ -66,8 +64,9 @@ async def test_a_key_accepted_before_a_kill_is_replayed_after_the_restart_and_ne
             resolved = (await client.get(f"/operations/{op['id']}")).json()
             if resolved["state"] not in ("done", "failed", "unknown"):
                 resolved = await until(
-                    lambda data: data["id"] == op["id"]
-                    and data["state"] in ("done", "failed", "unknown")
+                    lambda data: (
+                        data["id"] == op["id"] and data["state"] in ("done", "failed", "unknown")
+                    )
                 )
         assert resolved["state"] == "done", resolved
         assert resolved["position"] == 9000 and resolved["error"] is None

@@ -93,8 +93,7 @@ def format_audit(entry: dict[str, Any]) -> str:
     status = "ahead" if entry.get("event") == "intent" else entry.get("status")
     return (
         f"{entry['seq']:>6} {entry['time']}  {entry.get('token') or '-'}  "
-        f"{entry['method']} {entry['path']}{query} -> {status}"
-        + (f"  sent {sent}" if sent else "")
+        f"{entry['method']} {entry['path']}{query} -> {status}" + (f"  sent {sent}" if sent else "")
     )
 
 

@@ -81,7 +81,6 @@ class PreSendChecks:
         self.lease(ref, commands, holder)
         self.state(ref, commands)
 
-
     def refuse_unsendable(self, command: Command, field: str = "command") -> None:
         """422 for the forms the API never sends on a client's behalf (``I``)."""
         reason = _REFUSED.get(command.form)

@@ -127,4 +127,3 @@ async def test_answers_name_no_server_and_odd_methods_are_one_series(tmp_path: P
         lines = [line for line in text.splitlines() if line.startswith("rc233_http_requests_total")]
         assert not any(m in line for line in lines for m in odd), lines
         assert any('method="other"' in line for line in lines), lines
-

@@ -113,9 +113,7 @@ async def counting() -> AsyncIterator[tuple[httpx.AsyncClient, list[int], Clock]
     install_security(app, AuthConfig(no_auth=True))  # anyone may act: keys are kept
     install_problem_handlers(app)
     store = StateStore.memory()
-    app.state.idempotency_store = install_idempotency(
-        app, store, capacity=2, ttl=60, clock=clock
-    )
+    app.state.idempotency_store = install_idempotency(app, store, capacity=2, ttl=60, clock=clock)
     transport = httpx.ASGITransport(app=app)
     async with httpx.AsyncClient(transport=transport, base_url="http://localhost") as client:
         yield client, calls, clock

@@ -21,9 +21,7 @@ def _cell(tmp_path: Path, opcua: str, *, tokens: bool = True) -> Path:
     path.write_text(
         f'state_dir = "{tmp_path / "state"}"\n'
         '[[loops]]\nname = "main"\nport = "socket://127.0.0.1:4001"\n'
-        '[[loops.controllers]]\nbody = "1"\n'
-        + (token if tokens else "")
-        + f"[opcua]\n{opcua}\n"
+        '[[loops.controllers]]\nbody = "1"\n' + (token if tokens else "") + f"[opcua]\n{opcua}\n"
     )
     return path
 

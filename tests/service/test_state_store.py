@@ -24,9 +24,9 @@ from gateway.service.store.records import (
 )
 
 
-def _record(ident: str, created: float, state: str = "sent", ended: float | None = None) -> dict[
-    str, Any
-]:
+def _record(
+    ident: str, created: float, state: str = "sent", ended: float | None = None
+) -> dict[str, Any]:
     return {"id": ident, "state": state, "created": created, "ended": ended, "axis": "m.1.1"}
 
 

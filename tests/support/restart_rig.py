@@ -150,6 +150,7 @@ class RestartRig:
         gateway queues its saves after it publishes a change, so an event a client saw can be
         ahead of the record a restart reads (read through SQLite's WAL, as a new process
         would)."""
+
         def read() -> str | None:
             path = self.state_dir / DATABASE_NAME
             if not path.exists():

@@ -17,9 +17,7 @@ def render_workers(out: Exposition, runtime: object) -> None:
     """``rc233_worker_up`` and ``rc233_worker_restarts_total`` of every line worker."""
     workers = runtime.workers if isinstance(runtime, Runtime) else None
     supervisors = workers.supervisors if workers is not None else []
-    out.family(
-        "rc233_worker_up", "gauge", "1 while the line worker process runs and is connected."
-    )
+    out.family("rc233_worker_up", "gauge", "1 while the line worker process runs and is connected.")
     for supervisor in supervisors:
         out.sample("rc233_worker_up", {"worker": supervisor.name}, 1 if supervisor.up else 0)
     out.family(

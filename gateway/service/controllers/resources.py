@@ -141,9 +141,7 @@ class ControllerResources:
         try:
             command = cmd.set_table_entry(number, pp, fmt, signed=signed or pp < 0)
         except ParameterError as exc:  # pn is the path's, checked there: pp is `position`
-            raise InvalidInputError(
-                str(exc), field="position", rule=_position_rule(exc)
-            ) from None
+            raise InvalidInputError(str(exc), field="position", rule=_position_rule(exc)) from None
         return await self._write(ref, command, holder)
 
     # ------------------------------------------------------------------ I/O
