@@ -17,14 +17,12 @@ from collections.abc import AsyncIterator, Awaitable, Callable
 import pytest
 
 from gateway.bus.events import BusEvent, FramingChanged, LinkUp
-from gateway.bus.poller import PollConfig, Poller, attach
 from gateway.bus.requests import Outcome
-from gateway.bus.scheduler import LoopScheduler
 from gateway.bus.state import StateCache
 from gateway.protocol.command_text import parse
 from gateway.protocol.framing import POWER_ON, Framing
 from tests.support.bus_rig import Bus, MakeBus
-from tests.support.poll_rig import LOOP, Rig, close_rigs, start_rig
+from tests.support.poll_rig import LOOP, MakeRig, Rig, poller_rigs
 
 EL_SUM = Framing(cr_after_ack=True, checksum=True)
 SUM = Framing(checksum=True)
@@ -133,17 +131,9 @@ async def test_a_shared_cache_holds_the_framing_the_line_uses(make_bus: MakeBus)
 
 
 @pytest.fixture
-async def rig() -> AsyncIterator[Callable[..., Awaitable[Rig]]]:
-    made: list[Rig] = []
-
-    async def make(bodies: str = "12", scale: float = 2.0, **config: float) -> Rig:
-        def wire(scheduler: LoopScheduler, state: StateCache) -> Poller:
-            return attach(scheduler, state, list(bodies), PollConfig(**config))
-
-        return await start_rig(made, bodies, scale, wire)
-
-    yield make
-    await close_rigs(made)
+async def rig() -> AsyncIterator[MakeRig]:
+    async with poller_rigs(2.0) as make:
+        yield make
 
 
 async def test_a_controller_switched_off_and_on_is_unknown_in_both(

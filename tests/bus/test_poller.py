@@ -13,28 +13,26 @@ from itertools import pairwise
 
 import pytest
 
-from gateway.bus.poller import PollConfig, Poller, attach
 from gateway.bus.requests import Priority
-from gateway.bus.scheduler import LoopScheduler
-from gateway.bus.state import Change, ErrorKind, StateCache
+from gateway.bus.state import Change, ErrorKind
 from gateway.protocol.command_text import parse
 from gateway.protocol.reply_values import ProgramState, StatusFlags
 from gateway.sim.clock import RecordKind
-from tests.support.poll_rig import ALL_BODIES, LOOP, SKIPPED, Rig, close_rigs, move, start_rig
+from tests.support.poll_rig import (
+    ALL_BODIES,
+    LOOP,
+    SKIPPED,
+    MakeRig,
+    Rig,
+    move,
+    poller_rigs,
+)
 
 
 @pytest.fixture
-async def rig() -> AsyncIterator[Callable[..., Rig]]:
-    made: list[Rig] = []
-
-    async def make(bodies: str = "12", scale: float = 5.0, **config: float) -> Rig:
-        def wire(scheduler: LoopScheduler, state: StateCache) -> Poller:
-            return attach(scheduler, state, list(bodies), PollConfig(**config))
-
-        return await start_rig(made, bodies, scale, wire)
-
-    yield make  # type: ignore[misc]
-    await close_rigs(made)
+async def rig() -> AsyncIterator[MakeRig]:
+    async with poller_rigs(5.0) as make:
+        yield make
 
 
 async def test_moving_axis_gets_15_position_reads_a_second_among_15_controllers(

@@ -13,8 +13,7 @@ from collections.abc import AsyncIterator, Callable
 
 import pytest
 
-from gateway.bus.poller import PollConfig, Poller, attach
-from gateway.bus.scheduler import LoopScheduler
+from gateway.bus.poller import PollConfig, attach
 from gateway.bus.state import ErrorKind, StateCache
 from gateway.protocol.command_text import parse
 from gateway.protocol.framing import Framing, checksum
@@ -22,22 +21,14 @@ from gateway.sim.clock import RecordKind
 from gateway.sim.control import Controls
 from gateway.sim.loop import SimLoop
 from tests.support.bus_rig import MakeBus
-from tests.support.poll_rig import LOOP, Rig, close_rigs, start_rig
+from tests.support.poll_rig import LOOP, MakeRig, Rig, poller_rigs
 from tests.support.state_waits import until_state
 
 
 @pytest.fixture
-async def rig() -> AsyncIterator[Callable[..., Rig]]:
-    made: list[Rig] = []
-
-    async def make(bodies: str = "12", scale: float = 2.0, **config: float) -> Rig:
-        def wire(scheduler: LoopScheduler, state: StateCache) -> Poller:
-            return attach(scheduler, state, list(bodies), PollConfig(**config))
-
-        return await start_rig(made, bodies, scale, wire)
-
-    yield make  # type: ignore[misc]
-    await close_rigs(made)
+async def rig() -> AsyncIterator[MakeRig]:
+    async with poller_rigs(2.0) as make:
+        yield make
 
 
 def summed(frame: bytes) -> bool:

@@ -17,10 +17,17 @@ from itertools import pairwise
 
 import pytest
 
-from gateway.bus.poller import PollConfig, Poller, attach
-from gateway.bus.scheduler import LoopScheduler
-from gateway.bus.state import Change, StateCache
-from tests.support.poll_rig import ALL_BODIES, LOOP, SKIPPED, Rig, close_rigs, move, start_rig
+from gateway.bus.poller import PollConfig
+from gateway.bus.state import Change
+from tests.support.poll_rig import (
+    ALL_BODIES,
+    LOOP,
+    SKIPPED,
+    MakeRig,
+    Rig,
+    move,
+    poller_rigs,
+)
 
 DEFAULTS = PollConfig()
 #: an idle controller's status reads while an axis is watched, as a site may space them: 2 s
@@ -32,17 +39,9 @@ LATE = 0.25
 
 
 @pytest.fixture
-async def rig() -> AsyncIterator[Callable[..., Rig]]:
-    made: list[Rig] = []
-
-    async def make(bodies: str, **config: float) -> Rig:
-        def wire(scheduler: LoopScheduler, state: StateCache) -> Poller:
-            return attach(scheduler, state, list(bodies), PollConfig(**config))
-
-        return await start_rig(made, bodies, 1.0, wire)
-
-    yield make  # type: ignore[misc]
-    await close_rigs(made)
+async def rig() -> AsyncIterator[MakeRig]:
+    async with poller_rigs(1.0) as make:
+        yield make
 
 
 def status_times(r: Rig, body: str, start: float, end: float) -> list[float]:

@@ -8,12 +8,13 @@ is always on a condition (state changes, line records), never on a sleep.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import AsyncIterator, Awaitable, Callable
+from contextlib import asynccontextmanager
 from dataclasses import dataclass
 from itertools import pairwise
 
 from gateway.bus.config import LoopConfig
-from gateway.bus.poller import PollConfig, Poller
+from gateway.bus.poller import PollConfig, Poller, attach
 from gateway.bus.requests import Priority
 from gateway.bus.scheduler import LoopScheduler
 from gateway.bus.state import StateCache
@@ -130,3 +131,25 @@ async def move(r: Rig, body: str, motor: int, target: int) -> None:
         body, [parse(f"2{target}"), parse(f"3{motor}")], priority=Priority.OPERATOR
     )
     assert result.ok, result
+
+
+#: ``await make(bodies, scale=..., **poll_config)``: a rig whose poller polls ``bodies``.
+MakeRig = Callable[..., Awaitable[Rig]]
+
+
+@asynccontextmanager
+async def poller_rigs(default_scale: float) -> AsyncIterator[MakeRig]:
+    """Rigs whose poller polls their bodies with the poll settings given (``PollConfig``),
+    at ``default_scale`` unless a test says; every rig made is closed at the end."""
+    made: list[Rig] = []
+
+    async def make(bodies: str = "12", scale: float = default_scale, **config: float) -> Rig:
+        def wire(scheduler: LoopScheduler, state: StateCache) -> Poller:
+            return attach(scheduler, state, list(bodies), PollConfig(**config))
+
+        return await start_rig(made, bodies, scale, wire)
+
+    try:
+        yield make
+    finally:
+        await close_rigs(made)
