@@ -170,20 +170,33 @@ class Api(SimGateway):
     client: httpx.AsyncClient
 
 
+@dataclass
+class _Simulated:
+    """What both rigs build: the simulated loop, the runtime on it, its services, and the
+    service events recorded."""
+
+    sim: SimLoop
+    runtime: Runtime
+    services: Services
+    events: list[ServiceEvent]
+
+
 def _simulated(
     bodies: Sequence[str],
     scale: float,
     eeprom_dir: Path | None,
     config: GatewayConfig | None,
     store: StateStore | None,
-) -> tuple[SimLoop, Runtime]:
+) -> _Simulated:
     sim = build_loop(list(bodies), clock=SimClock(scale), eeprom_dir=eeprom_dir)
     config = config or simulated_config(bodies)
     # The in-process line of ``serve --simulate``: a port reopened at another rate (POST
     # /loops/{loop}/baud) sets the simulated line's, and controllers at another rate hear noise.
     line = sim_line(sim)
     runtime = Runtime(config, transports={SIM_LOOP: line}, time_scale=scale, store=store)
-    return sim, runtime
+    events: list[ServiceEvent] = []
+    runtime.events.subscribe(events.append)
+    return _Simulated(sim, runtime, compose(runtime), events)
 
 
 @asynccontextmanager
@@ -195,20 +208,17 @@ async def running_services(
 ) -> AsyncIterator[SimGateway]:
     """The services of ``compose`` on a simulated loop, started as the app's lifespan starts
     them and identified; closed after the block. No app, no HTTP: the caller is the service."""
-    sim, runtime = _simulated(bodies, scale, None, config, None)
-    services = compose(runtime)
-    events: list[ServiceEvent] = []
-    runtime.events.subscribe(events.append)
+    made = _simulated(bodies, scale, None, config, None)
     try:
-        await services.start()
+        await made.services.start()
         try:
-            gateway = SimGateway(runtime, sim, events, services)
+            gateway = SimGateway(made.runtime, made.sim, made.events, made.services)
             await gateway.identified()
             yield gateway
         finally:
-            await services.close()
+            await made.services.close()
     finally:
-        sim.close()
+        made.sim.close()
 
 
 @asynccontextmanager
@@ -230,27 +240,26 @@ async def running_app(
     config = config or simulated_config(bodies)
     if audit_log is not None:
         config = config.model_copy(update={"audit_log": audit_log})
-    sim, runtime = _simulated(bodies, scale, eeprom_dir, config, store)
+    made = _simulated(bodies, scale, eeprom_dir, config, store)
     if roles:
         book = TokenBook(TokenEntry(n, role, hash_token(t)) for n, (t, role) in TOKENS.items())
         auth = AuthConfig(book)
     else:
         auth = AuthConfig(no_auth=True)
-    services = compose(runtime)
-    app = create_app(services, auth=auth)
+    app = create_app(made.services, auth=auth)
     if cache_last:
-        for scheduler in runtime.schedulers.values():
-            scheduler.use_state(runtime.state, first=False)
-    events: list[ServiceEvent] = []
-    runtime.events.subscribe(events.append)
+        for scheduler in made.runtime.schedulers.values():
+            scheduler.use_state(made.runtime.state, first=False)
     try:
         async with app.router.lifespan_context(app):
             transport = httpx.ASGITransport(app=app)
             async with httpx.AsyncClient(
                 transport=transport, base_url=BASE, timeout=WAIT, event_hooks=DECLARE_JSON
             ) as client:
-                api = Api(runtime, sim, events, services, app=app, client=client)
+                api = Api(
+                    made.runtime, made.sim, made.events, made.services, app=app, client=client
+                )
                 await api.identified()
                 yield api
     finally:
-        sim.close()
+        made.sim.close()
