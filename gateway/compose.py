@@ -16,8 +16,7 @@ from __future__ import annotations
 
 from gateway.api.app import API_PREFIX
 from gateway.api.audit import control_entry, origin_entry, resolution_entry
-from gateway.api.audit_log import AuditLog
-from gateway.service.audit import FsyncPolicy, RotationPolicy
+from gateway.service.audit import AuditRecord, FsyncPolicy, RotationPolicy
 from gateway.service.axes import AxisService
 from gateway.service.baud import BaudChanger
 from gateway.service.config import GatewayConfig
@@ -34,10 +33,10 @@ from gateway.service.stops import StopAll
 __all__ = ["audit_of", "compose"]
 
 
-def audit_of(config: GatewayConfig) -> AuditLog:
+def audit_of(config: GatewayConfig) -> AuditRecord:
     """The audit log of ``config`` (``audit_log``, ``[audit]``)."""
     settings = config.audit
-    return AuditLog(
+    return AuditRecord(
         config.audit_log,
         rotation=RotationPolicy(max_bytes=settings.max_bytes, keep=settings.keep),
         fsync=FsyncPolicy(settings.fsync),

@@ -10,7 +10,7 @@ length and SHA-256), status, duration, and what the handler added with ``audit_n
 ...)``: ``bytes_sent`` (the wire frames), ``result``, ``position_before``,
 ``position_after``, ``operation``.
 
-``AuditLog`` (gateway/api/audit_log.py, on ``gateway.service.audit``) keeps the entries:
+The services' ``AuditRecord`` (``gateway.service.audit``) keeps the entries:
 numbered and chained in a file that cannot tear, the newest in memory. An answer given before
 any route authenticated the request names the principal of its ``Authorization`` header;
 tokens in the query are masked (``gateway.api.redaction``).
@@ -30,7 +30,7 @@ from fastapi import APIRouter, Depends, FastAPI, Query, Request
 from pydantic import BaseModel, ConfigDict, Field
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
-from gateway.api.audit_log import PAGE_LIMIT, AuditLog
+from gateway.api.audit_log import PAGE_LIMIT
 from gateway.api.middleware import audit_ahead
 from gateway.api.middleware.asgi_status import call_noting_status
 from gateway.api.problems import PROBLEM_RESPONSES
@@ -47,7 +47,6 @@ from gateway.service.roles import Role
 __all__ = [
     "MUTATING_METHODS",
     "AuditEntry",
-    "AuditLog",
     "AuditMiddleware",
     "AuditPage",
     "audit_note",

@@ -1,10 +1,10 @@
 """The audit log as the API serves it: the service's record plus its Prometheus series.
 
-``AuditLog`` is ``gateway.service.audit.AuditRecord`` (entries written ahead of what acts,
-numbered and chained in a file that cannot tear, the newest in memory) with ``exposition()``
-for ``/metrics`` (``audit_exposition`` of any audit record: the one the services hold):
-entries written, write errors, requests refused because their entry could not be written, and
-whether the file takes writes (``rc233_audit_log_ok``).
+The record itself is ``gateway.service.audit.AuditRecord`` (entries written ahead of what acts,
+numbered and chained in a file that cannot tear, the newest in memory), the one the services
+hold. ``audit_exposition`` is what ``/metrics`` says of it: entries written, write errors,
+requests refused because their entry could not be written, and whether the file takes writes
+(``rc233_audit_log_ok``).
 """
 
 from __future__ import annotations
@@ -12,15 +12,7 @@ from __future__ import annotations
 from gateway.api.metrics.exposition import Exposition
 from gateway.service.audit import MEMORY, PAGE_LIMIT, AuditRecord
 
-__all__ = ["MEMORY", "PAGE_LIMIT", "AuditLog", "audit_exposition"]
-
-
-class AuditLog(AuditRecord):
-    """The audit record with its metrics."""
-
-    def exposition(self) -> str:
-        """The audit log's metrics in the Prometheus text format."""
-        return audit_exposition(self)
+__all__ = ["MEMORY", "PAGE_LIMIT", "audit_exposition"]
 
 
 def audit_exposition(audit: AuditRecord) -> str:

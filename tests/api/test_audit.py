@@ -16,7 +16,8 @@ import pytest
 from fastapi import Depends, FastAPI, Request
 from pydantic import BaseModel
 
-from gateway.api.audit import AuditLog, audit_note, install_audit
+from gateway.api.audit import audit_note, install_audit
+from gateway.api.audit_log import audit_exposition
 from gateway.api.problems import install_problem_handlers
 from gateway.api.security import (
     AuthConfig,
@@ -27,7 +28,7 @@ from gateway.api.security import (
     install_security,
     require,
 )
-from gateway.service.audit import verify
+from gateway.service.audit import AuditRecord, verify
 from gateway.service.roles import Role
 from tests.support.sim_app import running_app
 
@@ -40,7 +41,7 @@ class Move(BaseModel):
     note: str = ""
 
 
-def build_app(audit: AuditLog) -> FastAPI:
+def build_app(audit: AuditRecord) -> FastAPI:
     app = FastAPI()
     app.state.moved = []
     install_problem_handlers(app)
@@ -75,7 +76,7 @@ def build_app(audit: AuditLog) -> FastAPI:
 
 @dataclass
 class Audited:
-    audit: AuditLog
+    audit: AuditRecord
     client: httpx.AsyncClient
     path: Path | None
 
@@ -92,7 +93,7 @@ class Audited:
 @pytest.fixture
 async def audited(tmp_path: Path) -> AsyncIterator[Audited]:
     path = tmp_path / "audit.jsonl"
-    audit = AuditLog(path)
+    audit = AuditRecord(path)
     transport = httpx.ASGITransport(app=build_app(audit), client=("203.0.113.9", 4711))
     async with httpx.AsyncClient(transport=transport, base_url="http://localhost") as client:
         yield Audited(audit, client, path)
@@ -226,7 +227,7 @@ async def test_since_takes_a_time_and_refuses_anything_else(audited: Audited):
 
 
 async def test_without_a_path_the_log_is_in_memory_only(tmp_path: Path):
-    audit = AuditLog(None)
+    audit = AuditRecord(None)
     transport = httpx.ASGITransport(app=build_app(audit))
     async with httpx.AsyncClient(transport=transport, base_url="http://localhost") as client:
         await client.post("/api/v1/axes/x/move", json={"position": 3}, headers=auth("otto"))
@@ -239,7 +240,7 @@ async def test_without_a_path_the_log_is_in_memory_only(tmp_path: Path):
 
 
 async def test_the_memory_keeps_the_newest_entries():
-    audit = AuditLog(None, memory=3)
+    audit = AuditRecord(None, memory=3)
     for i in range(5):
         audit.record({"time": "t", "method": "POST", "path": f"/{i}"})
     assert [e["path"] for e in audit.entries(limit=10)] == ["/2", "/3", "/4"]
@@ -249,7 +250,7 @@ async def test_the_memory_keeps_the_newest_entries():
 async def test_close_writes_every_entry_in_order(tmp_path: Path):
     path = tmp_path / "a" / "audit.jsonl"
     path.parent.mkdir()
-    audit = AuditLog(path)
+    audit = AuditRecord(path)
     for i in range(2500):
         audit.record({"time": "t", "method": "PUT", "path": f"/{i}", "bytes_sent": [b"\x02\xff"]})
     await audit.close()  # graceful shutdown: nothing queued is lost
@@ -263,7 +264,7 @@ async def test_a_disk_that_fails_refuses_what_acts_and_loses_no_record(
     tmp_path: Path, caplog: pytest.LogCaptureFixture
 ):
     folder = tmp_path / "missing-dir"
-    audit = AuditLog(folder / "audit.jsonl", retry_interval=0.05)
+    audit = AuditRecord(folder / "audit.jsonl", retry_interval=0.05)
     app = build_app(audit)
     transport = httpx.ASGITransport(app=app)
     async with httpx.AsyncClient(transport=transport, base_url="http://localhost") as client:
@@ -306,13 +307,13 @@ async def test_a_write_that_fails_is_loud_and_retried(tmp_path: Path):
     path.mkdir()  # a directory where the file should be: every write fails
     # The writer's own retry (tested on its own) would race the next record from a thread on
     # a slow machine; here only a request wakes it.
-    audit = AuditLog(path, retry_interval=3600)
+    audit = AuditRecord(path, retry_interval=3600)
     audit.record({"time": "t", "method": "POST", "path": "/1"})
     await audit.flush()
     assert not audit.healthy
     assert "audit.jsonl" in (audit.last_error or "")
-    assert "rc233_audit_write_errors_total 0" not in audit.exposition()
-    assert "rc233_audit_log_ok 0" in audit.exposition()
+    assert "rc233_audit_write_errors_total 0" not in audit_exposition(audit)
+    assert "rc233_audit_log_ok 0" in audit_exposition(audit)
     path.rmdir()  # the disk is back: the next write carries the line that failed
     audit.record({"time": "t", "method": "POST", "path": "/2"})
     await audit.close()
@@ -320,7 +321,7 @@ async def test_a_write_that_fails_is_loud_and_retried(tmp_path: Path):
     assert [(e["seq"], e["path"]) for e in lines[:2]] == [(1, "/1"), (2, "/2")]
     assert lines[2]["event"] == "audit_resumed"
     assert audit.healthy
-    assert "rc233_audit_log_ok 1" in audit.exposition()
+    assert "rc233_audit_log_ok 1" in audit_exposition(audit)
 
 
 async def test_a_request_refused_before_authentication_names_its_token(audited: Audited):
@@ -355,7 +356,7 @@ async def test_a_failing_audit_file_makes_the_gateway_not_ready_until_it_takes_w
         r = await api.client.post("/axes/x/stop")
         assert r.status_code == 200, r.text
         assert (await api.client.get("http://localhost/readyz")).status_code == 200
-        audit: AuditLog = api.services.audit
+        audit: AuditRecord = api.services.audit
         audit.retry_interval = 0.05
         await audit.flush()
         path.unlink()

@@ -25,7 +25,7 @@ from typing import Any
 
 import pytest
 
-from gateway.api.audit import AuditLog
+from gateway.service.audit import AuditRecord
 from tests.support.sim_app import Api, running_app
 
 pytestmark = pytest.mark.contract
@@ -252,7 +252,7 @@ async def test_every_field_of_every_operation_refuses_what_it_cannot_mean(
     assert not failures, f"{len(failures)} of {len(sweep)}:\n" + "\n".join(failures[:60])
     heard = [(r.kind.name, r.body, bytes(r.data)) for r in api.sim.log.since(mark)]
     assert heard == [], f"the sweep put something on the wire: {heard}"
-    audit: AuditLog = api.services.audit
+    audit: AuditRecord = api.services.audit
     await audit.flush()
     lines = (tmp_path / "audit.jsonl").read_text("utf-8").splitlines()
     assert [json.loads(line)["seq"] for line in lines] == list(range(1, audit.last_seq + 1))

@@ -1,7 +1,7 @@
 """A DCMD's audit record: written ahead of what it does, bounded, never holding a stop back.
 
 ``DeviceCommands`` as ``serve`` builds it (the API's token book and audit log, written ahead
-with ``AuditLog.write_ahead``) on the real app and simulated loop; the file and what the
+with ``AuditRecord.write_ahead``) on the real app and simulated loop; the file and what the
 simulated controller heard are read back.
 """
 
@@ -12,16 +12,16 @@ import json
 from pathlib import Path
 from typing import Any
 
-from gateway.api.audit_log import AuditLog
 from gateway.mqtt.dcmd import DeviceCommands
 from gateway.mqtt.sparkplug import Value
+from gateway.service.audit import AuditRecord
 from tests.support.sim_app import TOKENS, running_app
 
 TOPIC = "spBv1.0/plant/DCMD/cmd/gantry"
 
 
 def _handler(api: Any) -> DeviceCommands:
-    audit: AuditLog = api.services.audit
+    audit: AuditRecord = api.services.audit
     lookup = api.app.state.auth.book.principal
     return DeviceCommands(api.services.axes, lookup, audit.record, ahead=audit.write_ahead)
 
