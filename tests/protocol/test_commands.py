@@ -275,11 +275,6 @@ def test_form_predicates_are_facts_of_the_catalog() -> None:
     assert commands.selected_motor().form is commands.SELECTED_MOTOR
     assert commands.status().form is commands.STATUS
     assert parse("E2").form is commands.SET_MODE
-    assert {f for f in commands.FRAMING_SETTINGS} == {
-        e.form for e in _host_entries() if e.form.switches_framing
-    }
-    assert commands.FRAMING_SETTINGS[parse("SUM1").form] == ("checksum", True)
-    assert commands.FRAMING_QUERIES[parse("EL").form] == "cr_after_ack"
     assert {f.syntax for f in commands.CLEARS_ERRORS} == {"K{dt},{du}{dl}", "K{dt},{bt}", "KC"}
     # the motions whose end the soft limits work out: each one a motion of the catalog
     moves = {

@@ -14,7 +14,6 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from gateway.errors import ParameterError
-from gateway.protocol import commands
 from gateway.protocol.command_reader import CommandFrame, CommandReader, RawText, Stray
 from gateway.protocol.command_text import REGISTRY
 from gateway.protocol.framing import (
@@ -237,13 +236,12 @@ MANUAL_SWITCHES = {
 def test_the_switch_table_names_the_manuals_four_switches() -> None:
     assert set(SWITCH_FIELDS) == set(MANUAL_SWITCHES)
     assert sorted(SWITCH_FIELDS.values()) == sorted(f.name for f in fields(Framing))
-    # The catalog's framing forms are read from the same table, not written again.
-    for name, field_name in SWITCH_FIELDS.items():
-        query = commands.FRAMING_QUERIES[REGISTRY.form(name)]
-        assert query == field_name
-        for digit in "01":
-            setting = commands.FRAMING_SETTINGS[REGISTRY.form(f"{name}{digit}")]
-            assert setting == (field_name, digit == "1")
+    # Each switch of the table is the catalog's: its query, and its two settings, which the
+    # catalog marks as switching the framing (and no other form is so marked).
+    switching = {e.key for e in REGISTRY.entries if e.form.switches_framing}
+    assert switching == {f"{name}{digit}" for name in SWITCH_FIELDS for digit in "01"}
+    for name in SWITCH_FIELDS:
+        assert not REGISTRY.form(name).switches_framing  # the query reads it
 
 
 def _on(name: str) -> Framing:

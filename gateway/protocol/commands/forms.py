@@ -10,7 +10,6 @@ from collections.abc import Mapping
 
 from gateway.protocol.command_text import REGISTRY
 from gateway.protocol.commands.base import SpeedName
-from gateway.protocol.framing import SWITCH_FIELDS
 from gateway.protocol.spec import Form
 
 __all__ = [
@@ -20,8 +19,6 @@ __all__ = [
     "ERASE_EEPROM",
     "ERROR_OUTPUT_BITS",
     "ERROR_OUTPUT_MASK",
-    "FRAMING_QUERIES",
-    "FRAMING_SETTINGS",
     "LOAD_SETTINGS",
     "MODE",
     "MOVES_BY_POSITION_DATA",
@@ -90,17 +87,6 @@ CLEARS_ERRORS: frozenset[Form] = frozenset(
     REGISTRY.form(k) for k in ("K{dt},{du}{dl}", "K{dt},{bt}", "KC")
 )
 
-#: The query of each framing switch (§10 EE, EL, ER, SUM) -> the ``Framing`` field it reads
-#: (the switches' table is ``protocol.framing.SWITCH_FIELDS``).
-FRAMING_QUERIES: Mapping[Form, str] = {
-    REGISTRY.form(name): flag for name, flag in SWITCH_FIELDS.items()
-}
-#: Each of the eight framing switches -> the ``Framing`` field it sets, and to what.
-FRAMING_SETTINGS: Mapping[Form, tuple[str, bool]] = {
-    REGISTRY.form(f"{name}{digit}"): (flag, digit == "1")
-    for name, flag in SWITCH_FIELDS.items()
-    for digit in "01"
-}
 #: ``ES{bp}``: set the baud rate (written to the EEPROM at once).
 SET_BAUD_RATE: Form = REGISTRY.form("ES{bp}")
 
