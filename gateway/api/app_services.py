@@ -2,9 +2,11 @@
 
 ``create_app`` holds the ``Services`` the composition root built as ``app.state.services``;
 routes, dependencies and middleware read a service only through the getters here (each takes
-the request or WebSocket, ``HTTPConnection``, so it is a FastAPI dependency as it stands),
-never from ``app.state`` themselves. The app's own objects (its auth mode, metrics,
-idempotency store) are the HTTP face's, not services, and stay with their ``install_*``.
+the request or WebSocket, ``HTTPConnection``), never from ``app.state`` themselves. The getters
+are plain functions: a route's dependency wraps one in an ``async def`` (``routes/deps.py``),
+since FastAPI runs a plain dependency in its thread pool, a hop each request. The app's own
+objects (its auth mode, metrics, idempotency store) are the HTTP face's, not services, and
+stay with their ``install_*``.
 """
 
 from __future__ import annotations
